@@ -1,0 +1,6 @@
+#include "cli_support.hpp"
+#include "commands.hpp"
+
+namespace blt::cli {
+void registerLaminateCommand(CLI::App& analytic) { (void)analytic; }
+}  // namespace blt::cli

@@ -1,0 +1,33 @@
+#pragma once
+// What every subcommand shares: flags that take values with units (parsed by the units module, SI inside),
+// the --json switch, and printing of JSON documents.
+
+#include <CLI/CLI.hpp>
+#include <iostream>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "blt/core/units.hpp"
+
+namespace blt::cli {
+
+// An option whose value carries a unit ("6.5 km/s"). The SI value is stored in `target`; a missing unit or
+// a wrong dimension is an InputError naming the flag. The help text shows an example of the expected unit.
+inline CLI::Option* addQuantity(CLI::App& app, const std::string& name, double& target, units::Dimension dim,
+                                const std::string& description) {
+  const std::string flag = name.substr(0, name.find(','));
+  auto* opt = app.add_option_function<std::string>(
+      name, [&target, dim, flag](const std::string& text) { target = units::parse(text, dim, InputLocation::flag(flag)); },
+      description + " (e.g. " + units::example(dim) + ")");
+  opt->type_name(units::describe(dim) == "pressure or stress" ? "STRESS" : "QUANTITY");
+  return opt;
+}
+
+// Adds --json; subcommands print one JSON document to stdout when it is set.
+inline CLI::Option* addJsonFlag(CLI::App& app, bool& json) {
+  return app.add_flag("--json", json, "Print one JSON document (SI values, keys carry their unit) instead of text");
+}
+
+inline void printJson(const nlohmann::json& doc) { std::cout << doc.dump(2) << "\n"; }
+
+}  // namespace blt::cli

@@ -1,0 +1,12 @@
+#pragma once
+// Each subcommand lives in its own file and registers itself on its parent here.
+#include <CLI/CLI.hpp>
+
+namespace blt::cli {
+void registerLaminateCommand(CLI::App& analytic);          // analytic_laminate.cpp
+void registerResidualVelocityCommand(CLI::App& analytic);  // analytic_residual_velocity.cpp
+void registerChenLiCommand(CLI::App& analytic);            // analytic_chen_li.cpp
+void registerFlorenceCommand(CLI::App& analytic);          // analytic_florence.cpp
+void registerUnitsCommand(CLI::App& app);                  // units.cpp
+void registerMaterialsCommand(CLI::App& app);              // materials.cpp
+}  // namespace blt::cli

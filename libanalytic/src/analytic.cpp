@@ -1,0 +1,2 @@
+// libanalytic: analytical ballistic baselines.
+namespace blt::analytic {}

@@ -1,0 +1,2 @@
+// libble is built out in issue 3 (generalized Christiansen BLE, fitting, SQLite store).
+namespace blt::ble {}
