@@ -47,9 +47,43 @@ const std::vector<ModelSpec>& schema() {
         {"reference_strain_rate", units::rate, "1/s"},
         {"room_temperature", units::temperature, "K"},
         {"melt_temperature", units::temperature, "K"}}},
+      // Borvik's modification (LS-DYNA material 107, seed 003 Eq. 18): rate term (1 + rate/reference)^C instead of
+      // 1 + C ln(rate/reference); kept apart from johnson-cook because C means something else in it.
+      {"strength", "modified-johnson-cook",
+       {{"A", units::pressure, "MPa"},
+        {"B", units::pressure, "MPa"},
+        {"n", units::dimensionless, ""},
+        {"C", units::dimensionless, ""},
+        {"m", units::dimensionless, ""},
+        {"reference_strain_rate", units::rate, "1/s"},
+        {"room_temperature", units::temperature, "K"},
+        {"melt_temperature", units::temperature, "K"}}},
+      // Johnson-Holmquist 1 for ceramics (seed 002 sec. 3.7): intact strength piecewise linear in pressure through
+      // (P1, S1), (P2, S2), zero at -T (hydrostatic tensile strength); failed strength = slope * pressure capped at
+      // max_failed_strength.
+      {"strength", "johnson-holmquist-1",
+       {{"S1", units::pressure, "GPa"},
+        {"P1", units::pressure, "GPa"},
+        {"S2", units::pressure, "GPa"},
+        {"P2", units::pressure, "GPa"},
+        {"C", units::dimensionless, ""},
+        {"hydrostatic_tensile_strength", units::pressure, "GPa"},
+        {"max_failed_strength", units::pressure, "GPa"},
+        {"failed_strength_slope", units::dimensionless, ""},
+        {"reference_strain_rate", units::rate, "1/s"}}},
+      // A fluid without shear strength (water in seed 003 Table 3, LS-DYNA MAT_NULL): viscosity and a tensile
+      // pressure cut-off (negative).
+      {"strength", "fluid",
+       {{"dynamic_viscosity", Dimension{1, -1, -1, 0, 0}, "Pa s"}, {"pressure_cutoff", units::pressure, "Pa"}}},
       {"eos", "mie-grueneisen",
        {{"c0", units::velocity, "m/s"}, {"s", units::dimensionless, ""}, {"gamma0", units::dimensionless, ""},
         {"a", units::dimensionless, ""}}},
+      // p = k1 mu + k2 mu^2 + k3 mu^3 (+ bulking pressure), mu = rho/rho0 - 1 (seed 002 Eq. 13).
+      {"eos", "polynomial",
+       {{"k1", units::pressure, "GPa"},
+        {"k2", units::pressure, "GPa"},
+        {"k3", units::pressure, "GPa"},
+        {"bulking_factor", units::dimensionless, ""}}},
       {"failure", "max-principal-stress", {{"max_principal_stress", units::pressure, "MPa"}}},
       {"failure", "max-principal-strain", {{"max_principal_strain", units::dimensionless, ""}}},
       {"failure", "johnson-cook-damage",
@@ -59,6 +93,8 @@ const std::vector<ModelSpec>& schema() {
         {"D4", units::dimensionless, ""},
         {"D5", units::dimensionless, ""},
         {"critical_damage", units::dimensionless, ""}}},
+      // Johnson-Holmquist 1 damage (seed 002 sec. 3.7.2): plastic strain to fracture up to max_fracture_strain.
+      {"failure", "johnson-holmquist-1", {{"max_fracture_strain", units::dimensionless, ""}}},
       {"thermal", "",
        {{"specific_heat", units::specificHeat, "J/kg/K"},
         {"taylor_quinney", units::dimensionless, ""},

@@ -1,2 +1,0 @@
-// libanalytic: analytical ballistic baselines.
-namespace blt::analytic {}
