@@ -9,4 +9,5 @@ void registerChenLiCommand(CLI::App& analytic);            // analytic_chen_li.c
 void registerFlorenceCommand(CLI::App& analytic);          // analytic_florence.cpp
 void registerUnitsCommand(CLI::App& app);                  // units.cpp
 void registerMaterialsCommand(CLI::App& app);              // materials.cpp
+void registerBleCommand(CLI::App& app);  // ble.cpp
 }  // namespace blt::cli

@@ -21,6 +21,7 @@ int main(int argc, char** argv) {
   blt::cli::registerChenLiCommand(*analytic);
   blt::cli::registerFlorenceCommand(*analytic);
   blt::cli::registerMaterialsCommand(app);
+  blt::cli::registerBleCommand(app);
   blt::cli::registerUnitsCommand(app);
 
   try {

@@ -1,0 +1,706 @@
+// Fitting the generalized Christiansen BLE (seed 000 §6; REFERENCE §1): checking the input, the three methods,
+// the metrics, cross-validation and the delta-method band. The numerics (global search, polish, covariances,
+// the normal distribution) are in fit_solvers.cpp; the coordinates are explained in fit_detail.hpp.
+#include "blt/ble/fit.hpp"
+
+#include <ceres/ceres.h>
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <numbers>
+#include <random>
+#include <sstream>
+
+#include "blt/core/error.hpp"
+#include "blt/core/units.hpp"
+#include "fit_detail.hpp"
+
+namespace blt::ble {
+
+namespace fd = fit_detail;
+
+namespace {
+
+// Points closer than this to θ = 0 are at normal incidence (TwoStage's stage 1). Files give 0 exactly; the
+// tolerance only absorbs the round-off of a unit conversion.
+constexpr double kNormalIncidence = 1e-9;  // rad
+// Classify's probit scatter σ of ln d is kept in [kMinScatter, kMaxScatter]. The floor matters when the curve
+// separates the outcomes perfectly: the likelihood then keeps growing as σ -> 0 and has no interior maximum.
+constexpr double kMinScatter = 1e-3;
+constexpr double kMaxScatter = 2.0;
+// Fold assignment: a Fisher-Yates shuffle driven by std::mt19937 (whose output sequence the standard fixes)
+// with this seed, so the folds are the same on every platform.
+constexpr std::uint32_t kFoldSeed = 20240601;
+
+using Scaled = std::array<double, fd::kCoefficientCount>;
+using Mask = std::array<bool, fd::kCoefficientCount>;
+
+std::string number(double value) {
+  std::ostringstream out;
+  out.precision(6);
+  out << value;
+  return out.str();
+}
+
+// "data.csv:12" -> file data.csv, line 12.
+InputLocation pointLocation(const ImpactPoint& point, const std::string& field) {
+  const auto colon = point.origin.rfind(':');
+  if (colon != std::string::npos && colon + 1 < point.origin.size() &&
+      std::all_of(point.origin.begin() + static_cast<long>(colon) + 1, point.origin.end(),
+                  [](unsigned char c) { return std::isdigit(c) != 0; })) {
+    return InputLocation::file(point.origin.substr(0, colon), std::stoi(point.origin.substr(colon + 1)), field);
+  }
+  if (!point.origin.empty()) return InputLocation::file(point.origin, std::nullopt, field);
+  return InputLocation{{}, std::nullopt, field};
+}
+
+std::string pointName(const ImpactPoint& point, size_t index) {
+  std::string name = "point " + std::to_string(index + 1);
+  if (!point.source.empty()) name += " (" + point.source + ")";
+  return name;
+}
+
+// The files a data set came from, for errors about the set as a whole.
+InputLocation dataLocation(const std::vector<ImpactPoint>& points, const std::string& field) {
+  std::vector<std::string> files;
+  for (const ImpactPoint& point : points) {
+    const std::string file = pointLocation(point, "").source;
+    if (!file.empty() && std::find(files.begin(), files.end(), file) == files.end()) files.push_back(file);
+  }
+  std::string source;
+  for (size_t i = 0; i < files.size() && i < 3; ++i) source += (i ? ", " : "") + files[i];
+  if (files.size() > 3) source += " and " + std::to_string(files.size() - 3) + " more";
+  return InputLocation{source, std::nullopt, field};
+}
+
+InputLocation optionLocation(const std::string& field) { return InputLocation{{}, std::nullopt, field}; }
+
+void checkOptions(const FitOptions& options, size_t pointCount) {
+  if (!(std::isfinite(options.minimumTransitionWidth) && options.minimumTransitionWidth > 0)) {
+    throw InputError(optionLocation("minimumTransitionWidth"),
+                     "minimum V_H - V_L of " + number(options.minimumTransitionWidth) + " m/s",
+                     "a finite width > 0 m/s (V_L < V_H is required)");
+  }
+  if (!std::isfinite(options.defaultProjectileDensity) || options.defaultProjectileDensity < 0) {
+    throw InputError(optionLocation("defaultProjectileDensity"),
+                     "default projectile density " + number(options.defaultProjectileDensity) + " kg/m3",
+                     "0 (every point gives its own) or a finite density > 0 kg/m3");
+  }
+  const auto lower = options.bounds.lower.toArray();
+  const auto upper = options.bounds.upper.toArray();
+  for (int i = 0; i < fd::kCoefficientCount; ++i) {
+    const std::string name = ChristiansenCoefficients::kNames[static_cast<size_t>(i)];
+    if (!(std::isfinite(lower[i]) && std::isfinite(upper[i]) && lower[i] < upper[i])) {
+      throw InputError(optionLocation("bounds." + name),
+                       "bounds [" + number(lower[i]) + ", " + number(upper[i]) + "] are not an interval",
+                       "finite lower < upper");
+    }
+  }
+  for (int i : {0, 1, 2, 3}) {
+    if (lower[i] <= 0) {
+      throw InputError(optionLocation("bounds." + std::string(ChristiansenCoefficients::kNames[static_cast<size_t>(i)])),
+                       "lower bound " + number(lower[i]) + " admits non-positive values", "a lower bound > 0");
+    }
+  }
+  if (upper[1] - lower[0] <= options.minimumTransitionWidth) {
+    throw InputError(optionLocation("bounds.VH"),
+                     "upper bound of VH " + number(upper[1]) + " m/s leaves no room above VL's lower bound " +
+                         number(lower[0]) + " m/s",
+                     "upper VH > lower VL + " + number(options.minimumTransitionWidth) + " m/s");
+  }
+  for (int k = 0; k < 4; ++k) {
+    const int i = 4 + k;
+    const double start = options.angleExponentStart[static_cast<size_t>(k)];
+    if (!(start >= lower[i] && start <= upper[i])) {
+      throw InputError(optionLocation("angleExponentStart." +
+                                      std::string(ChristiansenCoefficients::kNames[static_cast<size_t>(i)])),
+                       "start value " + number(start) + " is outside the bounds",
+                       "[" + number(lower[i]) + ", " + number(upper[i]) + "]");
+    }
+  }
+  if (options.crossValidationFolds < 0 ||
+      (options.crossValidationFolds > 1 && static_cast<size_t>(options.crossValidationFolds) > pointCount)) {
+    throw InputError(optionLocation("crossValidationFolds"),
+                     std::to_string(options.crossValidationFolds) + " folds for " + std::to_string(pointCount) +
+                         " points",
+                     "0 or 1 (none), or 2 to the number of points");
+  }
+  if (options.globalEvaluations < 0) {
+    throw InputError(optionLocation("globalEvaluations"), std::to_string(options.globalEvaluations) + " evaluations",
+                     "0 (local fit from the start values only) or more");
+  }
+}
+
+std::vector<fd::FitPoint> resolvePoints(const std::vector<ImpactPoint>& points, double defaultDensity) {
+  if (points.empty()) {
+    throw InputError(optionLocation("points"), "there are no impact points to fit", "at least one point per coefficient");
+  }
+  std::vector<fd::FitPoint> resolved;
+  resolved.reserve(points.size());
+  for (size_t i = 0; i < points.size(); ++i) {
+    const ImpactPoint& p = points[i];
+    auto fail = [&](const std::string& field, const std::string& what, const std::string& allowed) {
+      throw InputError(pointLocation(p, field), pointName(p, i) + ": " + what, allowed);
+    };
+    if (!(std::isfinite(p.diameter) && p.diameter > 0)) {
+      fail("diameter_mm", "diameter " + number(units::toUnit(p.diameter, "mm")) + " mm", "a finite diameter > 0");
+    }
+    if (!(std::isfinite(p.velocity) && p.velocity > 0)) {
+      fail("velocity_km_s", "velocity " + number(units::toUnit(p.velocity, "km/s")) + " km/s",
+           "a finite velocity > 0");
+    }
+    if (!(std::isfinite(p.angle) && p.angle >= 0 && p.angle < 0.5 * std::numbers::pi)) {
+      fail("angle_deg", "angle " + number(units::toUnit(p.angle, "deg")) + " deg", "0 <= angle < 90 deg");
+    }
+    if (!(std::isfinite(p.projectileDensity) && p.projectileDensity >= 0)) {
+      fail("projectile_density_kg_m3", "projectile density " + number(p.projectileDensity) + " kg/m3",
+           "a finite density > 0 kg/m3, or none (the default density applies)");
+    }
+    resolved.push_back({p.diameter, p.velocity, p.angle, pointDensity(p, defaultDensity), p.perforated});
+  }
+  return resolved;
+}
+
+fd::CoordinateMap makeMap(const FitOptions& options) {
+  fd::CoordinateMap map;
+  const auto lower = options.bounds.lower.toArray();
+  const auto upper = options.bounds.upper.toArray();
+  for (int i = 0; i < fd::kCoefficientCount; ++i) {
+    map.lower[i] = lower[i] / fd::scaleOf(i);
+    map.upper[i] = upper[i] / fd::scaleOf(i);
+  }
+  map.gap = options.minimumTransitionWidth / fd::kVelocityScale;
+  return map;
+}
+
+Scaled toScaled(const fd::CoordinateMap& map, const double* q) {
+  Scaled u{};
+  map.toScaled(q, u.data());
+  return u;
+}
+
+ChristiansenCoefficients toCoefficients(const Scaled& u) {
+  std::array<double, fd::kCoefficientCount> p{};
+  for (int i = 0; i < fd::kCoefficientCount; ++i) p[i] = u[i] * fd::scaleOf(i);
+  return ChristiansenCoefficients::fromArray(p.data());
+}
+
+// Start values: Christiansen's EMU regime boundaries (seed 000 Eq. 11), the given angle exponents, and C_L = C_H
+// = the median of d ρ^½ V^⅔ (cos θ)^X over the points, i.e. the constant that puts the median point on a
+// single-branch curve. All clipped into the bounds; the global search takes it from there.
+Scaled startValues(const std::vector<fd::FitPoint>& points, const FitOptions& options, const fd::CoordinateMap& map) {
+  std::vector<double> constants;
+  for (const fd::FitPoint& p : points) {
+    constants.push_back(p.diameter * std::sqrt(p.density) * std::cbrt(p.velocity * p.velocity) *
+                        std::pow(std::cos(p.angle), options.angleExponentStart[2]));
+  }
+  std::nth_element(constants.begin(), constants.begin() + static_cast<long>(constants.size() / 2), constants.end());
+  const double c = constants[constants.size() / 2];
+  Scaled u{5.1, 6.95, c, c, options.angleExponentStart[0], options.angleExponentStart[1],
+           options.angleExponentStart[2], options.angleExponentStart[3]};
+  for (int i = 0; i < fd::kCoefficientCount; ++i) u[i] = std::clamp(u[i], map.lower[i], map.upper[i]);
+  return u;
+}
+
+// |d - x a - y b|² = dd - 2 (x ad + y bd) + x² aa + 2 x y ab + y² bb, minimised over a box in (x, y).
+struct QuadraticForm {
+  double aa = 0, ab = 0, bb = 0, ad = 0, bd = 0, dd = 0;
+
+  double value(double x, double y) const {
+    return dd - 2.0 * (x * ad + y * bd) + x * x * aa + 2.0 * x * y * ab + y * y * bb;
+  }
+  // Sets (x, y) to the minimiser in [xLo, xHi] x [yLo, yHi] and returns the minimum. A convex quadratic on a box
+  // has its minimum inside (the unconstrained solution) or on an edge (where the other variable is a clamped 1-D
+  // minimiser). A variable that changes nothing (a zero column: no point on that branch) keeps its value.
+  double minimiseInBox(double& x, double& y, double xLo, double xHi, double yLo, double yHi) const {
+    double bestX = x, bestY = y, best = std::numeric_limits<double>::infinity();
+    const auto consider = [&](double cx, double cy) {
+      const double v = value(cx, cy);
+      if (v < best) {
+        best = v;
+        bestX = cx;
+        bestY = cy;
+      }
+    };
+    const double det = aa * bb - ab * ab;
+    if (det > 1e-12 * aa * bb) {
+      const double ux = (ad * bb - bd * ab) / det, uy = (aa * bd - ab * ad) / det;
+      if (ux >= xLo && ux <= xHi && uy >= yLo && uy <= yHi) consider(ux, uy);
+    }
+    for (double cy : {y, yLo, yHi}) {
+      consider(aa > 0 ? std::clamp((ad - cy * ab) / aa, xLo, xHi) : x, cy);
+    }
+    for (double cx : {x, xLo, xHi}) {
+      consider(cx, bb > 0 ? std::clamp((bd - cx * ab) / bb, yLo, yHi) : y);
+    }
+    x = bestX;
+    y = bestY;
+    return std::max(best, 0.0);
+  }
+};
+
+fd::BoundedProblem leastSquaresProblem(const std::vector<fd::FitPoint>& points, const fd::CoordinateMap& map,
+                                       const Mask& isFree) {
+  fd::BoundedProblem problem;
+  problem.size = fd::kCoefficientCount;
+  const auto lo = map.searchLower();
+  const auto hi = map.searchUpper();
+  problem.lower.assign(lo.begin(), lo.end());
+  problem.upper.assign(hi.begin(), hi.end());
+  problem.isFree.assign(isFree.begin(), isFree.end());
+  problem.objective = [&points, &map](const double* q) {
+    double sum = 0;
+    for (const fd::FitPoint& point : points) {
+      double r = 0;
+      fd::DiameterResidual{point, &map}(q, &r);
+      sum += r * r;
+    }
+    return sum;
+  };
+  problem.addResiduals = [&points, &map](ceres::Problem& ceresProblem, double* q) {
+    for (const fd::FitPoint& point : points) {
+      ceresProblem.AddResidualBlock(new ceres::AutoDiffCostFunction<fd::DiameterResidual, 1, fd::kCoefficientCount>(
+                                        new fd::DiameterResidual{point, &map}),
+                                    nullptr, q);
+    }
+  };
+  if (isFree[2] && isFree[3]) {
+    // d_c = C_L A + C_H B with A, B independent of C_L, C_H (each branch and the blend are linear in them), so
+    // for the rest fixed the best constants solve a 2x2 least-squares problem; the search then only roams the
+    // regime boundaries and the angle exponents, where the objective is rough.
+    problem.profiled = {false, false, true, true, false, false, false, false};
+    problem.profiledObjective = [&points, &map](double* q) {
+      Scaled u{};
+      map.toScaled(q, u.data());
+      QuadraticForm form;
+      for (const fd::FitPoint& point : points) {
+        u[2] = 1.0;
+        u[3] = 0.0;
+        const double a = fd::kLengthScale * fd::criticalDiameterScaled(u.data(), point);
+        u[2] = 0.0;
+        u[3] = 1.0;
+        const double b = fd::kLengthScale * fd::criticalDiameterScaled(u.data(), point);
+        const double d = fd::kLengthScale * point.diameter;
+        form.aa += a * a;
+        form.ab += a * b;
+        form.bb += b * b;
+        form.ad += a * d;
+        form.bd += b * d;
+        form.dd += d * d;
+      }
+      return form.minimiseInBox(q[2], q[3], map.lower[2], map.upper[2], map.lower[3], map.upper[3]);
+    };
+  }
+  return problem;
+}
+
+fd::BoundedProblem classifyProblem(const std::vector<fd::FitPoint>& points, const fd::CoordinateMap& map) {
+  fd::BoundedProblem problem;
+  problem.size = fd::kClassifyCount;
+  const auto lo = map.searchLower();
+  const auto hi = map.searchUpper();
+  problem.lower.assign(lo.begin(), lo.end());
+  problem.upper.assign(hi.begin(), hi.end());
+  problem.lower.push_back(std::log(kMinScatter));
+  problem.upper.push_back(std::log(kMaxScatter));
+  problem.isFree.assign(fd::kClassifyCount, true);
+  problem.objective = [&points, &map](const double* x) {
+    Scaled u{};
+    map.toScaled(x, u.data());
+    double sum = 0;
+    for (const fd::FitPoint& point : points) sum += fd::probitNegativeLogLikelihood(u.data(), x[8], point);
+    return sum;
+  };
+  problem.addResiduals = [&points, &map](ceres::Problem& ceresProblem, double* x) {
+    for (const fd::FitPoint& point : points) {
+      ceresProblem.AddResidualBlock(new ceres::AutoDiffCostFunction<fd::ProbitResidual, 1, fd::kClassifyCount>(
+                                        new fd::ProbitResidual{point, &map}),
+                                    nullptr, x);
+    }
+  };
+  return problem;
+}
+
+// Names of the free coordinates of x that ended on a bound of the problem's box.
+std::vector<std::string> coordinatesOnBounds(const fd::BoundedProblem& problem, const fd::CoordinateMap& map,
+                                             const std::vector<double>& x) {
+  std::vector<std::string> names;
+  for (int i = 0; i < problem.size; ++i) {
+    if (!problem.isFree[static_cast<size_t>(i)]) continue;
+    const double tolerance = 1e-6 * (problem.upper[i] - problem.lower[i]);
+    const bool atLower = x[i] - problem.lower[i] <= tolerance;
+    const bool atUpper = problem.upper[i] - x[i] <= tolerance;
+    if (!atLower && !atUpper) continue;
+    if (i == 1) {
+      names.push_back(atLower ? "VH (at max(VH's lower bound, VL + " + number(map.gap * fd::kVelocityScale) + " m/s))"
+                              : "VH (upper bound)");
+    } else if (i == fd::kCoefficientCount) {
+      names.push_back(std::string("sigma (") + (atLower ? "lower" : "upper") + " bound)");
+    } else {
+      names.push_back(std::string(ChristiansenCoefficients::kNames[static_cast<size_t>(i)]) + " (" +
+                      (atLower ? "lower" : "upper") + " bound)");
+    }
+  }
+  return names;
+}
+
+std::string joined(const std::vector<std::string>& parts) {
+  std::string text;
+  for (size_t i = 0; i < parts.size(); ++i) text += (i ? ", " : "") + parts[i];
+  return text;
+}
+
+// One least-squares stage: fits the free coefficients from q, the others held. Returns the new q and appends to
+// `onBounds` the coefficients that ended on a bound.
+std::vector<double> leastSquaresStage(const std::vector<fd::FitPoint>& points, const fd::CoordinateMap& map,
+                                      const std::vector<double>& q, const Mask& isFree, int globalEvaluations,
+                                      double& sumOfSquares, std::vector<std::string>& onBounds) {
+  const fd::BoundedProblem problem = leastSquaresProblem(points, map, isFree);
+  std::vector<double> result = fd::minimise(problem, q, globalEvaluations);
+  sumOfSquares = problem.objective(result.data());
+  for (auto& name : coordinatesOnBounds(problem, map, result)) onBounds.push_back(std::move(name));
+  return result;
+}
+
+struct MethodResult {
+  Scaled coefficients{};  // scaled
+  std::array<double, 64> covariance{};
+  bool covarianceAvailable = false;
+  std::string covarianceNote;
+  double scatter = 0;
+};
+
+// Least-squares covariance of one stage (or the joint fit) into `result`; false with a note when unavailable.
+bool addLeastSquaresCovariance(const std::vector<fd::FitPoint>& points, const Scaled& u, const Mask& isFree,
+                               double sumOfSquares, const std::string& label, MethodResult& result) {
+  const int freeCount = static_cast<int>(std::count(isFree.begin(), isFree.end(), true));
+  const int dof = static_cast<int>(points.size()) - freeCount;
+  if (dof <= 0) {
+    result.covarianceNote += label + ": as many points as coefficients, so no residual variance to scale by. ";
+    return false;
+  }
+  std::array<double, 64> block{};
+  if (!fd::leastSquaresCovariance(points, u, isFree, sumOfSquares / dof, block)) {
+    result.covarianceNote += label +
+                             ": the Jacobian is rank deficient at the optimum (some coefficient does not change "
+                             "any residual there, e.g. no point between V1 and V2 pins V_L and V_H). ";
+    return false;
+  }
+  for (int k = 0; k < 64; ++k) result.covariance[k] += block[k];
+  return true;
+}
+
+void noteBounds(const std::vector<std::string>& onBounds, MethodResult& result) {
+  if (onBounds.empty()) return;
+  result.covarianceNote += "On a bound at the optimum: " + joined(onBounds) +
+                           "; the covariance treats the optimum as interior and does not know the bound. ";
+}
+
+MethodResult fitTwoStage(const std::vector<ImpactPoint>& raw, const std::vector<fd::FitPoint>& points,
+                         const FitOptions& options, const fd::CoordinateMap& map) {
+  // Stage 1 takes the points at θ = 0, where d_c does not depend on the angle exponents (seed 000 Eq. 13);
+  // stage 2 takes all oblique points. Selecting by angle is the seed's own split (Table 1 + Table 6 at 0 deg,
+  // Table 7 at 45 and 60 deg); the caller picks which 0 deg points go in by what it passes.
+  std::vector<fd::FitPoint> normal, oblique;
+  for (const fd::FitPoint& p : points) (p.angle < kNormalIncidence ? normal : oblique).push_back(p);
+  const std::string allowed = "at least 4 points at 0 deg and 4 oblique points, or the joint or classify method";
+  const std::string count = std::to_string(points.size());
+  if (normal.empty()) {
+    throw InputError(dataLocation(raw, "angle_deg"),
+                     "the two-stage fit needs points at 0 deg for stage 1 (VL, VH, CL, CH), but none of the " + count +
+                         " points is at normal incidence",
+                     allowed);
+  }
+  if (oblique.empty()) {
+    throw InputError(dataLocation(raw, "angle_deg"),
+                     "the two-stage fit needs oblique points for stage 2 (SL, SH, X, XH), but all " + count +
+                         " points are at 0 deg",
+                     allowed);
+  }
+  if (normal.size() < 4 || oblique.size() < 4) {
+    throw InputError(dataLocation(raw, "angle_deg"),
+                     "fewer points than parameters: " + std::to_string(normal.size()) + " points at 0 deg and " +
+                         std::to_string(oblique.size()) + " oblique ones for 4 coefficients in each stage",
+                     allowed);
+  }
+  const Scaled start = startValues(normal, options, map);
+  const auto q0 = map.toSearch(start);
+  std::vector<std::string> onBounds;
+  double ssr1 = 0, ssr2 = 0;
+  const Mask stage1{true, true, true, true, false, false, false, false};
+  const Mask stage2{false, false, false, false, true, true, true, true};
+  const auto q1 = leastSquaresStage(normal, map, {q0.begin(), q0.end()}, stage1, options.globalEvaluations, ssr1,
+                                    onBounds);
+  const auto q2 = leastSquaresStage(oblique, map, q1, stage2, options.globalEvaluations, ssr2, onBounds);
+
+  MethodResult result;
+  result.coefficients = toScaled(map, q2.data());
+  const bool ok1 = addLeastSquaresCovariance(normal, result.coefficients, stage1, ssr1, "Stage 1", result);
+  const bool ok2 = addLeastSquaresCovariance(oblique, result.coefficients, stage2, ssr2, "Stage 2", result);
+  result.covarianceAvailable = ok1 && ok2;
+  if (!result.covarianceAvailable) {
+    result.covariance = {};
+  } else {
+    result.covarianceNote +=
+        "Two-stage: the (VL, VH, CL, CH) block is stage 1's and the (SL, SH, X, XH) block stage 2's, each scaled "
+        "by its own residual variance; the covariances between the blocks are set to zero because stage 2 takes "
+        "stage 1's values as exact, so the bands understate the uncertainty at oblique angles. ";
+  }
+  noteBounds(onBounds, result);
+  return result;
+}
+
+MethodResult fitJointLeastSquares(const std::vector<ImpactPoint>& raw, const std::vector<fd::FitPoint>& points,
+                                  const FitOptions& options, const fd::CoordinateMap& map) {
+  if (points.size() < static_cast<size_t>(fd::kCoefficientCount)) {
+    throw InputError(dataLocation(raw, "points"),
+                     "fewer points than parameters: " + std::to_string(points.size()) +
+                         " points for the 8 coefficients of the joint fit",
+                     "at least 8 points");
+  }
+  const auto q0 = map.toSearch(startValues(points, options, map));
+  std::vector<std::string> onBounds;
+  double ssr = 0;
+  const Mask all{true, true, true, true, true, true, true, true};
+  const auto q = leastSquaresStage(points, map, {q0.begin(), q0.end()}, all, options.globalEvaluations, ssr, onBounds);
+  MethodResult result;
+  result.coefficients = toScaled(map, q.data());
+  result.covarianceAvailable = addLeastSquaresCovariance(points, result.coefficients, all, ssr, "Joint fit", result);
+  if (!result.covarianceAvailable) result.covariance = {};
+  noteBounds(onBounds, result);
+  return result;
+}
+
+MethodResult fitClassify(const std::vector<ImpactPoint>& raw, const std::vector<fd::FitPoint>& points,
+                         const FitOptions& options, const fd::CoordinateMap& map) {
+  const auto perforated = std::count_if(points.begin(), points.end(), [](const auto& p) { return p.perforated; });
+  if (perforated == 0 || perforated == static_cast<long>(points.size())) {
+    throw InputError(dataLocation(raw, "perforated"),
+                     std::string("every one of the ") + std::to_string(points.size()) + " points is " +
+                         (perforated ? "perforated" : "stopped") + ": a single outcome class places no curve",
+                     "both perforated and stopped points for the classify method");
+  }
+  if (points.size() < static_cast<size_t>(fd::kClassifyCount)) {
+    throw InputError(dataLocation(raw, "points"),
+                     "fewer points than parameters: " + std::to_string(points.size()) +
+                         " points for the 8 coefficients and the scatter of the classify fit",
+                     "at least 9 points");
+  }
+  // Start: the joint least-squares fit, with σ the spread of ln(d/d_c) about it.
+  const auto q0 = map.toSearch(startValues(points, options, map));
+  std::vector<std::string> ignored;
+  double ssr = 0;
+  const Mask all{true, true, true, true, true, true, true, true};
+  std::vector<double> x =
+      leastSquaresStage(points, map, {q0.begin(), q0.end()}, all, options.globalEvaluations, ssr, ignored);
+  const Scaled uLeastSquares = toScaled(map, x.data());
+  double spread = 0;
+  for (const fd::FitPoint& p : points) {
+    const double r = std::log(p.diameter / fd::criticalDiameterScaled(uLeastSquares.data(), p));
+    spread += r * r;
+  }
+  spread = std::sqrt(spread / static_cast<double>(points.size()));
+  x.push_back(std::log(std::clamp(spread, kMinScatter, kMaxScatter)));
+
+  const fd::BoundedProblem problem = classifyProblem(points, map);
+  x = fd::minimise(problem, x, options.globalEvaluations);
+
+  MethodResult result;
+  result.coefficients = toScaled(map, x.data());
+  result.scatter = std::exp(x[fd::kCoefficientCount]);
+  const auto onBounds = coordinatesOnBounds(problem, map, x);
+
+  if (x[fd::kCoefficientCount] - problem.lower[fd::kCoefficientCount] <= 1e-6) {
+    result.covarianceNote = "sigma reached its lower bound " + number(kMinScatter) +
+                            ": the curve separates the outcomes without overlap, so the likelihood has no interior "
+                            "maximum and no covariance. ";
+    return result;
+  }
+  // Covariance: the inverse of the observed information, the Hessian of the negative log-likelihood at the
+  // optimum, in (coefficients, ln σ); the coefficients' block of the inverse is their covariance with σ
+  // profiled over. ceres::Covariance would return (JᵀJ)⁻¹ of the residuals sqrt(-ln L_k) instead: that is only
+  // the Gauss-Newton part of half this Hessian (the Σ r_k ∇²r_k terms do not vanish, since the residuals do not
+  // vanish at the optimum), and Ceres' scaling assumes unit-variance residuals, which these are not.
+  fd::ClassifyVector at{};
+  for (int i = 0; i < fd::kCoefficientCount; ++i) at[i] = result.coefficients[i];
+  at[fd::kCoefficientCount] = x[fd::kCoefficientCount];
+  const auto hessian = fd::probitHessian(points, at);
+  const Eigen::Matrix<double, 9, 9> h = Eigen::Map<const Eigen::Matrix<double, 9, 9, Eigen::RowMajor>>(hessian.data());
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 9, 9>> eigen(h);
+  const double smallest = eigen.eigenvalues()(0);
+  const double largest = eigen.eigenvalues()(8);
+  if (eigen.info() != Eigen::Success || !h.allFinite() || !(smallest > 1e-12 * largest)) {
+    result.covarianceNote = "the Hessian of the negative log-likelihood is not positive definite at the optimum "
+                            "(eigenvalues from " +
+                            number(smallest) + " to " + number(largest) +
+                            "): the data do not determine every coefficient (e.g. no point near the V1-V2 blend "
+                            "pins V_L and V_H). ";
+    return result;
+  }
+  const Eigen::Matrix<double, 9, 9> inverse =
+      eigen.eigenvectors() * eigen.eigenvalues().cwiseInverse().asDiagonal() * eigen.eigenvectors().transpose();
+  for (int i = 0; i < fd::kCoefficientCount; ++i) {
+    for (int j = 0; j < fd::kCoefficientCount; ++j) {
+      result.covariance[i * 8 + j] = inverse(i, j) * fd::scaleOf(i) * fd::scaleOf(j);
+    }
+  }
+  result.covarianceAvailable = true;
+  result.covarianceNote = "Inverse observed information (Hessian of the negative log-likelihood), sigma profiled. ";
+  noteBounds(onBounds, result);
+  return result;
+}
+
+FitQuality quality(const std::vector<fd::FitPoint>& points, const ChristiansenCoefficients& c) {
+  FitQuality q;
+  double sum = 0;
+  for (const fd::FitPoint& p : points) {
+    const double dc = criticalDiameter(c, p.velocity, p.angle, p.density);
+    sum += (p.diameter - dc) * (p.diameter - dc);
+    if ((p.perforated && p.diameter < dc) || (!p.perforated && p.diameter > dc)) ++q.misclassified;
+  }
+  q.pointCount = static_cast<int>(points.size());
+  q.meanSquareError = points.empty() ? 0.0 : sum / static_cast<double>(points.size());
+  return q;
+}
+
+double crossValidate(const std::vector<ImpactPoint>& points, const std::vector<fd::FitPoint>& resolved,
+                     const FitOptions& options) {
+  const int folds = options.crossValidationFolds;
+  const size_t n = points.size();
+  std::vector<size_t> order(n);
+  for (size_t i = 0; i < n; ++i) order[i] = i;
+  std::mt19937 rng(kFoldSeed);
+  for (size_t i = n - 1; i > 0; --i) std::swap(order[i], order[rng() % (i + 1)]);
+  std::vector<int> fold(n);
+  for (size_t k = 0; k < n; ++k) fold[order[k]] = static_cast<int>(k % static_cast<size_t>(folds));
+
+  FitOptions inner = options;
+  inner.crossValidationFolds = 0;
+  size_t correct = 0;
+  for (int f = 0; f < folds; ++f) {
+    std::vector<ImpactPoint> training;
+    for (size_t i = 0; i < n; ++i) {
+      if (fold[i] != f) training.push_back(points[i]);
+    }
+    FitResult fit;
+    try {
+      fit = fitChristiansen(training, inner);
+    } catch (const InputError& e) {
+      throw InputError(optionLocation("crossValidationFolds"),
+                       "the training set of fold " + std::to_string(f + 1) + " of " + std::to_string(folds) +
+                           " cannot be fitted: " + e.what(),
+                       "fewer folds, or more points");
+    }
+    for (size_t i = 0; i < n; ++i) {
+      if (fold[i] != f) continue;
+      const fd::FitPoint& p = resolved[i];
+      const double dc = criticalDiameter(fit.coefficients, p.velocity, p.angle, p.density);
+      if (!((p.perforated && p.diameter < dc) || (!p.perforated && p.diameter > dc))) ++correct;
+    }
+  }
+  return static_cast<double>(correct) / static_cast<double>(n);
+}
+
+}  // namespace
+
+std::string toString(FitMethod method) {
+  switch (method) {
+    case FitMethod::TwoStage: return "two-stage";
+    case FitMethod::Joint: return "joint";
+    case FitMethod::Classify: return "classify";
+  }
+  return "two-stage";
+}
+
+FitMethod fitMethodFromString(const std::string& text) {
+  std::string lower = text;
+  std::transform(lower.begin(), lower.end(), lower.begin(), [](unsigned char c) { return std::tolower(c); });
+  for (FitMethod m : {FitMethod::TwoStage, FitMethod::Joint, FitMethod::Classify}) {
+    if (lower == toString(m)) return m;
+  }
+  throw InputError(optionLocation("method"), "unknown fit method '" + text + "'", "two-stage, joint, classify");
+}
+
+double pointDensity(const ImpactPoint& point, double defaultProjectileDensity) {
+  if (point.projectileDensity > 0) return point.projectileDensity;
+  if (defaultProjectileDensity > 0) return defaultProjectileDensity;
+  std::string name = point.source.empty() ? "the point" : "the point (" + point.source + ")";
+  throw InputError(pointLocation(point, "projectile_density_kg_m3"),
+                   name + " gives no projectile density and no default density is set",
+                   "a projectile_density_kg_m3 column, or a default projectile density > 0 kg/m3 (--density)");
+}
+
+FitQuality evaluateFit(const std::vector<ImpactPoint>& points, const ChristiansenCoefficients& coefficients,
+                       double defaultProjectileDensity) {
+  return quality(resolvePoints(points, defaultProjectileDensity), coefficients);
+}
+
+FitResult fitChristiansen(const std::vector<ImpactPoint>& points, const FitOptions& options) {
+  checkOptions(options, points.size());
+  const std::vector<fd::FitPoint> resolved = resolvePoints(points, options.defaultProjectileDensity);
+  const fd::CoordinateMap map = makeMap(options);
+
+  MethodResult method;
+  switch (options.method) {
+    case FitMethod::TwoStage: method = fitTwoStage(points, resolved, options, map); break;
+    case FitMethod::Joint: method = fitJointLeastSquares(points, resolved, options, map); break;
+    case FitMethod::Classify: method = fitClassify(points, resolved, options, map); break;
+  }
+
+  FitResult result;
+  result.method = options.method;
+  result.coefficients = toCoefficients(method.coefficients);
+  result.covariance = method.covariance;
+  result.covarianceAvailable = method.covarianceAvailable;
+  result.covarianceNote = method.covarianceNote;
+  while (!result.covarianceNote.empty() && result.covarianceNote.back() == ' ') result.covarianceNote.pop_back();
+  result.scatter = method.scatter;
+  const FitQuality q = quality(resolved, result.coefficients);
+  result.meanSquareError = q.meanSquareError;
+  result.misclassified = q.misclassified;
+  result.pointCount = q.pointCount;
+  if (options.crossValidationFolds > 1) result.crossValidatedAccuracy = crossValidate(points, resolved, options);
+  return result;
+}
+
+DiameterBand criticalDiameterBand(const FitResult& fit, double velocity, double angle, double projectileDensity,
+                                  double level) {
+  if (!(std::isfinite(velocity) && velocity > 0)) {
+    throw InputError(optionLocation("velocity"), "velocity " + number(velocity) + " m/s", "a finite velocity > 0");
+  }
+  if (!(std::isfinite(angle) && angle >= 0 && angle < 0.5 * std::numbers::pi)) {
+    throw InputError(optionLocation("angle"), "angle " + number(units::toUnit(angle, "deg")) + " deg",
+                     "0 <= angle < 90 deg");
+  }
+  if (!(std::isfinite(projectileDensity) && projectileDensity > 0)) {
+    throw InputError(optionLocation("projectileDensity"), "projectile density " + number(projectileDensity) + " kg/m3",
+                     "a finite density > 0 kg/m3");
+  }
+  if (!(level > 0 && level < 1)) {
+    throw InputError(optionLocation("level"), "confidence level " + number(level), "0 < level < 1, e.g. 0.90");
+  }
+  // Gradient of d_c with respect to the eight coefficients (SI) by forward-mode autodiff.
+  using Jet = ceres::Jet<double, fd::kCoefficientCount>;
+  const auto c = fit.coefficients.toArray();
+  std::array<Jet, fd::kCoefficientCount> p;
+  for (int i = 0; i < fd::kCoefficientCount; ++i) p[i] = Jet(c[i], i);
+  const Jet dc = christiansenCriticalDiameter(p.data(), velocity, angle, projectileDensity);
+  DiameterBand band{dc.a, dc.a, dc.a};
+  if (!fit.covarianceAvailable) return band;
+  double variance = 0;
+  for (int i = 0; i < fd::kCoefficientCount; ++i) {
+    for (int j = 0; j < fd::kCoefficientCount; ++j) variance += dc.v[i] * fit.covariance[i * 8 + j] * dc.v[j];
+  }
+  // ln d_c has gradient ∇d_c / d_c, so its standard deviation is √(gᵀΣg) / d_c.
+  const double sigmaLn = std::sqrt(std::max(variance, 0.0)) / dc.a;
+  const double z = fd::normalQuantile(0.5 * (1.0 + level));
+  band.low = dc.a * std::exp(-z * sigmaLn);
+  band.high = dc.a * std::exp(z * sigmaLn);
+  return band;
+}
+
+}  // namespace blt::ble

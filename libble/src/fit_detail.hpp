@@ -1,0 +1,230 @@
+#pragma once
+// Private to the fitting code (fit.cpp, fit_solvers.cpp): the objectives, their coordinates and the solvers.
+//
+// Coordinates. Three views of the eight coefficients appear here:
+//  - SI: (VL, VH, CL, CH, SL, SH, X, XH) as in ChristiansenCoefficients, velocities in m/s.
+//  - scaled: the same with VL and VH in km/s, so that every coefficient is of order 0.1-100. Covariances and the
+//    Hessian are computed in these and converted to SI at the end.
+//  - search (q): scaled, but with VH replaced by t in [0, 1], VH = a + t (VH_max - a), a = max(VH_min, VL + gap).
+//    Every q in its box maps onto a coefficient set with VL + gap <= VH inside the user's bounds, which is how
+//    V_L < V_H is enforced: Ceres and NLopt only know box bounds. The map has a kink where VL + gap = VH_min;
+//    harmless for the local solvers, which already live with the kinks of d_c itself.
+// Classify adds a ninth coordinate, ln σ.
+
+#include <ceres/jet.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "blt/ble/christiansen.hpp"
+
+namespace ceres {
+class Problem;
+}
+
+namespace blt::ble::fit_detail {
+
+constexpr int kCoefficientCount = ChristiansenCoefficients::kCount;
+constexpr int kClassifyCount = kCoefficientCount + 1;  // coefficients + ln σ
+constexpr double kVelocityScale = 1000.0;               // scaled VL, VH are in km/s
+constexpr double kLengthScale = 1000.0;                 // residuals in mm
+
+// One impact point with everything resolved: SI, density known.
+struct FitPoint {
+  double diameter = 0;  // m
+  double velocity = 0;  // m/s
+  double angle = 0;     // rad
+  double density = 0;   // kg/m³
+  bool perforated = false;
+};
+
+// Scaled <-> SI for the velocities (indices 0 and 1).
+inline double scaleOf(int index) { return index < 2 ? kVelocityScale : 1.0; }
+
+// The search-coordinate map described at the top. All bounds are in scaled units.
+struct CoordinateMap {
+  std::array<double, kCoefficientCount> lower{}, upper{};  // scaled bounds on the coefficients
+  double gap = 0;                                          // smallest VH - VL, km/s
+
+  // Bounds of q. VL's upper bound is trimmed so that VL + gap <= VH_max.
+  std::array<double, kCoefficientCount> searchLower() const {
+    auto lo = lower;
+    lo[1] = 0.0;
+    return lo;
+  }
+  std::array<double, kCoefficientCount> searchUpper() const {
+    auto hi = upper;
+    hi[0] = std::min(upper[0], upper[1] - gap);
+    hi[1] = 1.0;
+    return hi;
+  }
+
+  // q -> scaled coefficients.
+  template <typename T>
+  void toScaled(const T* q, T* u) const {
+    T floor = q[0] + gap;
+    if (floor < lower[1]) floor = T(lower[1]);
+    for (int i = 0; i < kCoefficientCount; ++i) u[i] = q[i];
+    u[1] = floor + q[1] * (upper[1] - floor);
+  }
+  // scaled coefficients -> q (VH is clipped into its feasible range first).
+  std::array<double, kCoefficientCount> toSearch(const std::array<double, kCoefficientCount>& u) const {
+    auto q = u;
+    q[0] = std::clamp(u[0], lower[0], searchUpper()[0]);
+    const double floor = std::max(lower[1], q[0] + gap);
+    q[1] = upper[1] > floor ? std::clamp((u[1] - floor) / (upper[1] - floor), 0.0, 1.0) : 0.0;
+    return q;
+  }
+};
+
+// d_c (m) from scaled coefficients.
+template <typename T>
+T criticalDiameterScaled(const T* u, const FitPoint& point) {
+  T p[kCoefficientCount];
+  for (int i = 0; i < kCoefficientCount; ++i) p[i] = u[i] * scaleOf(i);
+  return christiansenCriticalDiameter(p, point.velocity, point.angle, point.density);
+}
+
+// Which of the three regimes of Eq. 12 a point falls in, by christiansenCriticalDiameter's rule.
+enum class Regime { Ballistic, Blend, Shatter };
+inline Regime regimeOf(const double* u, const FitPoint& point) {
+  const double cosTheta = std::cos(point.angle);
+  const double v1 = u[0] * kVelocityScale / std::pow(cosTheta, u[4]);
+  const double v2 = u[1] * kVelocityScale / std::pow(cosTheta, u[5]);
+  if (point.velocity <= v1) return Regime::Ballistic;
+  if (point.velocity >= v2) return Regime::Shatter;
+  return Regime::Blend;
+}
+
+// d_c (m) from scaled coefficients with the regime given rather than decided: the same formulas as
+// christiansenCriticalDiameter, but smooth in every coefficient. Used to differentiate twice at an optimum that
+// sits on a regime boundary (see probitHessian).
+template <typename T>
+T criticalDiameterInRegime(const T* u, const FitPoint& point, Regime regime) {
+  using std::pow;
+  const double cosTheta = std::cos(point.angle);
+  const double sqrtRho = std::sqrt(point.density);
+  if (regime == Regime::Ballistic) return u[2] / (sqrtRho * std::cbrt(point.velocity * point.velocity) * pow(cosTheta, u[6]));
+  if (regime == Regime::Shatter) return u[3] / (sqrtRho * std::cbrt(point.velocity * point.velocity) * pow(cosTheta, u[7]));
+  const T v1 = kVelocityScale * u[0] / pow(cosTheta, u[4]);
+  const T v2 = kVelocityScale * u[1] / pow(cosTheta, u[5]);
+  const T atV1 = u[2] / (sqrtRho * pow(v1, 2.0 / 3.0) * pow(cosTheta, u[6]));
+  const T atV2 = u[3] / (sqrtRho * pow(v2, 2.0 / 3.0) * pow(cosTheta, u[7]));
+  const T w = (point.velocity - v1) / (v2 - v1);
+  return atV2 * w + atV1 * (1.0 - w);
+}
+
+// ---- The standard normal distribution ----------------------------------------------------------------------
+
+constexpr double kLogSqrtTwoPi = 0.91893853320467274178;  // ln √(2π)
+
+// ln Φ(x), accurate to a few ulps over the whole real line (no underflow to -inf for large negative x).
+double logNormalCdf(double x);
+
+// ln Φ for Jets: d/dx ln Φ(x) = φ(x)/Φ(x), formed as exp(ln φ - ln Φ) so that it stays finite in the far tail.
+template <typename T, int N>
+ceres::Jet<T, N> logNormalCdf(const ceres::Jet<T, N>& x) {
+  using std::exp;
+  const T value = logNormalCdf(x.a);
+  const T slope = exp(-0.5 * x.a * x.a - kLogSqrtTwoPi - value);
+  return ceres::Jet<T, N>(value, slope * x.v);
+}
+
+// Φ⁻¹(p) for 0 < p < 1, to about 1e-15 relative.
+double normalQuantile(double p);
+
+// ---- Objectives ----------------------------------------------------------------------------------------------
+
+// Least squares on d: r = (d - d_c) in mm. Coefficients either in search coordinates (through `map`) or scaled
+// (map == nullptr).
+struct DiameterResidual {
+  FitPoint point;
+  const CoordinateMap* map = nullptr;
+
+  template <typename T>
+  bool operator()(const T* x, T* residual) const {
+    T u[kCoefficientCount];
+    if (map) {
+      map->toScaled(x, u);
+    } else {
+      for (int i = 0; i < kCoefficientCount; ++i) u[i] = x[i];
+    }
+    residual[0] = kLengthScale * (point.diameter - criticalDiameterScaled(u, point));
+    return true;
+  }
+};
+
+// One point's share of the probit negative log-likelihood, -ln Φ(±ln(d/d_c)/σ) (+ for perforated, - for
+// stopped); x = 8 coefficients then ln σ.
+template <typename T>
+T probitFromCriticalDiameter(const T& criticalDiameter, const T& logSigma, const FitPoint& point) {
+  using std::exp;
+  using std::log;
+  const T z = (std::log(point.diameter) - log(criticalDiameter)) / exp(logSigma);
+  return -logNormalCdf(point.perforated ? z : -z);
+}
+template <typename T>
+T probitNegativeLogLikelihood(const T* u, const T& logSigma, const FitPoint& point) {
+  return probitFromCriticalDiameter(criticalDiameterScaled(u, point), logSigma, point);
+}
+
+// As a least-squares residual sqrt(-ln L), so that Ceres' Σ r² is the negative log-likelihood (-ln Φ > 0). Where
+// Φ rounds to 1 the point costs nothing and has no gradient; sqrt would give 0/0 there.
+struct ProbitResidual {
+  FitPoint point;
+  const CoordinateMap* map = nullptr;
+
+  template <typename T>
+  bool operator()(const T* x, T* residual) const {
+    using std::sqrt;
+    T u[kCoefficientCount];
+    if (map) {
+      map->toScaled(x, u);
+    } else {
+      for (int i = 0; i < kCoefficientCount; ++i) u[i] = x[i];
+    }
+    const T cost = probitNegativeLogLikelihood(u, x[kCoefficientCount], point);
+    residual[0] = cost > 1e-300 ? sqrt(cost) : T(0.0);
+    return true;
+  }
+};
+
+// ---- Solvers -------------------------------------------------------------------------------------------------
+
+// A bounded least-squares problem in some coordinates x (size n): objective(x) = Σ r², the same residuals that
+// addResiduals puts into a Ceres problem on the single parameter block x.
+struct BoundedProblem {
+  int size = 0;
+  std::vector<double> lower, upper;
+  std::vector<bool> isFree;  // held coordinates keep their start value
+  std::function<double(const double*)> objective;
+  std::function<void(ceres::Problem&, double*)> addResiduals;
+  // Optional variable projection for the global search: coordinates marked `profiled` are left out of the
+  // search space, and profiledObjective(x) sets them to their best values for the rest of x (in place) and
+  // returns the objective there. Least squares on d profiles C_L and C_H, on which d_c depends linearly.
+  std::vector<bool> profiled;
+  std::function<double(double*)> profiledObjective;
+};
+
+// Deterministic global search (NLopt from `start`, `globalEvaluations` evaluations, fixed seed) followed by
+// Ceres polishing from the start, the search's best point and the next best distinct points it visited. Returns
+// the best point found.
+std::vector<double> minimise(const BoundedProblem& problem, std::vector<double> start, int globalEvaluations);
+
+// ceres::Covariance of the scaled coefficients for least squares on d (residuals in mm), on the free ones only,
+// multiplied by `residualVariance` (mm²) and converted to SI. False when Ceres finds the Jacobian rank deficient.
+bool leastSquaresCovariance(const std::vector<FitPoint>& points, const std::array<double, kCoefficientCount>& scaled,
+                            const std::array<bool, kCoefficientCount>& isFree, double residualVariance,
+                            std::array<double, 64>& covarianceSI);
+
+// Hessian of the probit negative log-likelihood in (scaled coefficients, ln σ), with every point's regime
+// frozen at x; see fit_solvers.cpp for why.
+using ClassifyVector = std::array<double, kClassifyCount>;
+std::array<double, kClassifyCount * kClassifyCount> probitHessian(const std::vector<FitPoint>& points,
+                                                                  const ClassifyVector& x);
+
+}  // namespace blt::ble::fit_detail
