@@ -10,6 +10,7 @@ namespace blt::cli {
 namespace {
 nlohmann::json materialJson(const Material& m) {
   nlohmann::json j{{"id", m.id}, {"name", m.name}, {"source", m.source}, {"density_kg_m3", m.density}};
+  if (!m.notes.empty()) j["notes"] = m.notes;
   for (const auto& [secName, sec] : m.sections) {
     nlohmann::json s;
     if (!sec.model.empty()) s["model"] = sec.model;

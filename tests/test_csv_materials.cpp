@@ -68,3 +68,13 @@ TEST_CASE("materials: a card parses with units, and bad cards are clear errors")
   CHECK(again.param("strength", "A") == relApprox(265e6));
   CHECK(again.param("strength", "n") == relApprox(0.34));
 }
+
+TEST_CASE("materials: notes survive a round trip, multi-line ones included") {
+  const std::string text =
+      "name = \"x\"\nsource = \"seed 000 Table 3\"\nnotes = \"\"\"room temperature 293 K assumed;\n\"quoted\" here\"\"\"\n"
+      "density = \"2770 kg/m3\"\n";
+  Material m = parseMaterial(text, "n.toml", "n");
+  CHECK(m.notes == "room temperature 293 K assumed;\n\"quoted\" here");
+  Material again = parseMaterial(materialToToml(m), "again.toml", "again");
+  CHECK(again.notes == m.notes);
+}

@@ -188,6 +188,7 @@ Material parseMaterial(const std::string& text, const std::string& sourceName, c
   m.path = sourceName;
   m.name = requireString(root, "name", at);
   m.source = requireString(root, "source", at);
+  if (root.contains("notes")) m.notes = requireString(root, "notes", at);
   auto densityNode = root.get("density");
   if (!densityNode) throw InputError(at.withField("density"), "the required key is missing", "e.g. \"2770 kg/m3\"");
   m.density = readValue(*densityNode, {"density", units::density, "kg/m3"},
@@ -244,11 +245,23 @@ std::string materialToToml(const Material& m) {
   std::ostringstream out;
   auto quote = [](const std::string& s) {
     std::string q = "\"";
-    for (char c : s) q += (c == '"' || c == '\\') ? std::string("\\") + c : std::string(1, c);
+    for (char c : s) {
+      if (c == '"' || c == '\\') {
+        q += '\\';
+        q += c;
+      } else if (c == '\n') {
+        q += "\\n";
+      } else if (c == '\t') {
+        q += "\\t";
+      } else {
+        q += c;
+      }
+    }
     return q + "\"";
   };
   out << "name = " << quote(m.name) << "\n";
   out << "source = " << quote(m.source) << "\n";
+  if (!m.notes.empty()) out << "notes = " << quote(m.notes) << "\n";
   out << "density = " << quote(units::format(m.density, "kg/m3", 8)) << "\n";
   for (const auto& [secName, sec] : m.sections) {
     out << "\n[" << secName << "]\n";

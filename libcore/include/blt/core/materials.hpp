@@ -4,9 +4,11 @@
 // described in data/materials/README.md. Every parameter is checked against the schema of its section's
 // model when the file is loaded, so a typo or a wrong unit is reported with file, line and key.
 //
-// A material is composed of sections, each a small model: [elastic], [strength] (johnson-cook, bilinear,
-// elastic), [eos] (mie-grueneisen), [failure] (max-principal-stress, max-principal-strain, johnson-cook-damage),
-// [thermal], [properties] (quasi-static figures used by analytical models).
+// A material is composed of sections, each a small model: [elastic], [strength] (johnson-cook,
+// modified-johnson-cook, bilinear, elastic, johnson-holmquist-1, fluid), [eos] (mie-grueneisen, polynomial),
+// [failure] (max-principal-stress, max-principal-strain, johnson-cook-damage, johnson-holmquist-1), [thermal],
+// [properties] (quasi-static figures used by analytical models). The schema table in materials.cpp is the
+// authority; data/materials/README.md lists the keys with their dimensions.
 
 #include <map>
 #include <string>
@@ -26,6 +28,7 @@ struct Material {
   std::string id;      // file stem, used to refer to the material ("al_2a12")
   std::string name;    // human name ("2A12 aluminium alloy")
   std::string source;  // provenance ("seed 000 Table 3")
+  std::string notes;   // assumptions made in transcribing it (e.g. a room temperature the seed does not give)
   std::string path;    // file it was read from
   double density = 0;  // kg/m^3
   std::map<std::string, MaterialSection> sections;
