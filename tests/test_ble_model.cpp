@@ -75,3 +75,10 @@ TEST_CASE("ble: NASA Whipple BLE classifies 830 of 1135 pyBLOSSUM Whipple shots 
   CHECK(t.rowCount() == 1135);
   CHECK(right == 830);
 }
+
+TEST_CASE("ble: the margin ln(d/d_c) of a shot has the sign of the expected outcome") {
+  // At 0 deg and 7 km/s REFERENCE §1's table gives d_c = 0.9346 mm for the seed coefficients.
+  const auto c = ble::ChristiansenCoefficients::seed000Table8();
+  CHECK(ble::margin(c, 1.2e-3, 7000.0, 0.0, 2770.0) == relApprox(std::log(1.2 / 0.9346), 1e-4));
+  CHECK(ble::margin(c, 0.8e-3, 7000.0, 0.0, 2770.0) < 0.0);
+}

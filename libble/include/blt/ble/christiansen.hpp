@@ -69,4 +69,12 @@ inline double criticalDiameter(const ChristiansenCoefficients& c, double velocit
   return christiansenCriticalDiameter(p.data(), velocity, angle, projectileDensity);
 }
 
+// The margin of a shot against the curve, ln(d / d_c): positive above the curve (perforation expected), negative
+// below (the target should stop it). A binary data point is on the right side when its margin has the sign of its
+// outcome.
+inline double margin(const ChristiansenCoefficients& c, double diameter, double velocity, double angle,
+                     double projectileDensity) {
+  return std::log(diameter / criticalDiameter(c, velocity, angle, projectileDensity));
+}
+
 }  // namespace blt::ble
