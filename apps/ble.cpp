@@ -98,6 +98,10 @@ struct FitCommandOptions {
   std::vector<std::string> where;
   double density = 0;
   int folds = 0;
+  // Defaults from FitOptions, so that the help shows them.
+  double minimumTransition = ble::FitOptions{}.minimumTransitionWidth;   // m/s
+  double wrongSideWeight = ble::FitOptions{}.wrongSideWeight;            // dimensionless
+  double wrongSideMargin = ble::FitOptions{}.wrongSideMargin;            // m
   bool replace = false, json = false;
 };
 
@@ -121,6 +125,20 @@ void runFit(const CLI::App& cmd, const FitCommandOptions& o) {
                        "an integer >= 2, e.g. --cv 10");
     options.crossValidationFolds = o.folds;
   }
+  if (!(std::isfinite(o.minimumTransition) && o.minimumTransition > 0.0))
+    throw InputError(InputLocation::flag("--min-transition"),
+                     "the minimum V_H - V_L must be positive, got " + units::format(o.minimumTransition, "m/s"),
+                     "a velocity > 0, e.g. --min-transition 100m/s");
+  options.minimumTransitionWidth = o.minimumTransition;
+  if (!(std::isfinite(o.wrongSideWeight) && o.wrongSideWeight >= 0.0))
+    throw InputError(InputLocation::flag("--wrong-side-weight"), "'" + plain(o.wrongSideWeight) + "' is not a weight",
+                     "a number >= 0 (0 = plain least squares), e.g. --wrong-side-weight 10");
+  options.wrongSideWeight = o.wrongSideWeight;
+  if (!(std::isfinite(o.wrongSideMargin) && o.wrongSideMargin >= 0.0))
+    throw InputError(InputLocation::flag("--wrong-side-margin"),
+                     "the margin must not be negative, got " + units::format(o.wrongSideMargin, "mm"),
+                     "a length >= 0, e.g. --wrong-side-margin 0.02mm");
+  options.wrongSideMargin = o.wrongSideMargin;
   if (!o.where.empty() && o.pyblossum.empty())
     throw InputError(InputLocation::flag("--where"), "--where filters a pyBLOSSUM database, but none is given",
                      "--pyblossum FILE --where column=value");
@@ -187,11 +205,17 @@ void runFit(const CLI::App& cmd, const FitCommandOptions& o) {
         {"misclassified", result.misclassified},
         {"n_points", result.pointCount},
         {"default_projectile_density_kg_m3", options.defaultProjectileDensity},
+        {"minimum_transition_width_m_s", options.minimumTransitionWidth},
         {"data_hash", stored.dataHash},
         {"covariance_available", result.covarianceAvailable},
     };
     if (!result.covarianceNote.empty()) doc["covariance_note"] = result.covarianceNote;
-    if (result.method == ble::FitMethod::Classify) doc["scatter_ln_d"] = result.scatter;
+    if (result.method == ble::FitMethod::Classify) {
+      doc["scatter_ln_d"] = result.scatter;
+    } else {
+      doc["wrong_side_weight"] = options.wrongSideWeight;
+      doc["wrong_side_margin_m"] = options.wrongSideMargin;
+    }
     if (result.crossValidatedAccuracy) {
       doc["cv_accuracy"] = *result.crossValidatedAccuracy;
       doc["cv_folds"] = options.crossValidationFolds;
@@ -205,6 +229,13 @@ void runFit(const CLI::App& cmd, const FitCommandOptions& o) {
   if (options.defaultProjectileDensity > 0)
     out << ", projectile density " << units::format(options.defaultProjectileDensity, "kg/m3", 5) << " unless given";
   out << ") saved to " << o.db << "\n";
+  if (result.method != ble::FitMethod::Classify) {
+    if (options.wrongSideWeight > 0)
+      out << "  wrong-side hinge: weight " << plain(options.wrongSideWeight) << ", margin "
+          << units::format(options.wrongSideMargin, "mm", 4) << "\n";
+    else
+      out << "  plain least squares on d (no wrong-side hinge)\n";
+  }
   for (size_t i = 0; i < values.size(); ++i) {
     const auto& d = kCoefficientDisplay[i];
     const auto se = standardError(result, i);
@@ -511,8 +542,13 @@ void registerBleCommand(CLI::App& app) {
         "Fit the generalized Christiansen BLE (seed 000 Eq. 12) to binary impact data and save it in the store.\n"
         "Input CSV columns: diameter_mm, velocity_km_s, angle_deg, perforated, source [, projectile_density_kg_m3].\n"
         "The fit is run first; nothing is written when it fails.\n"
+        "two-stage and joint fit least squares on d plus a hinge on points that do not clear the curve on their "
+        "own side (--wrong-side-weight, --wrong-side-margin); --wrong-side-weight 0 is the seed's plain least "
+        "squares.\n"
         "Example: blt ble fit data/seed/seed000_table1_tests.csv data/seed/seed000_table6_mpm.csv "
-        "data/seed/seed000_table7_mpm.csv --db fits.db --name seed000 --density 2770kg/m3");
+        "data/seed/seed000_table7_mpm.csv --db fits.db --name seed000 --density 2770kg/m3\n"
+        "Example: blt ble fit data/seed/seed000_table1_tests.csv data/seed/seed000_table7_mpm.csv --db fits.db "
+        "--name plain --density 2770kg/m3 --wrong-side-weight 0 --min-transition 200m/s");
     auto o = std::make_shared<FitCommandOptions>();
     cmd->add_option("data", o->dataFiles, "Impact CSV files (binary outcome per shot)");
     cmd->add_option("--db", o->db, "BLE store (SQLite file; created when missing)")->required();
@@ -524,6 +560,19 @@ void registerBleCommand(CLI::App& app) {
     addQuantity(*cmd, "--density", o->density, units::density,
                 "projectile density for points whose data do not give one");
     cmd->add_option("--cv", o->folds, "K-fold cross-validated classification accuracy (K >= 2)");
+    addQuantity(*cmd, "--min-transition", o->minimumTransition, units::velocity,
+                "smallest V_H - V_L the fit may reach, which is how V_L < V_H is kept (default " +
+                    units::format(o->minimumTransition, "m/s") + ")");
+    cmd->add_option("--wrong-side-weight", o->wrongSideWeight,
+                    "two-stage and joint: each point adds (W v)^2 to the squared residuals of d, v = how far it falls "
+                    "short of lying the margin on its own side of the curve (perforated above, stopped below); a "
+                    "large W makes the outcomes constraints, 0 is plain least squares (the seed's method); "
+                    "ignored by classify")
+        ->capture_default_str();
+    addQuantity(*cmd, "--wrong-side-margin", o->wrongSideMargin, units::length,
+                "how far a point must clear the curve on its own side before the hinge is off, about half the "
+                "data's diameter resolution (default " +
+                    units::format(o->wrongSideMargin, "mm") + ")");
     cmd->add_option("--pyblossum", o->pyblossum, "A pyBLOSSUM database CSV to take shots from");
     cmd->add_option("--where", o->where,
                     "Filter on a pyBLOSSUM column, repeatable: column=value with or without unit "

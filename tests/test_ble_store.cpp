@@ -100,6 +100,9 @@ StoredFit handMadeFit(const std::string& name) {
   f.options.angleExponentStart = {0.1, 0.2, 1.0 / 3.0, 0.7};
   f.options.crossValidationFolds = 5;
   f.options.globalEvaluations = 1234;
+  f.options.minimumTransitionWidth = 250.0 + 1.0 / 3.0;
+  f.options.wrongSideWeight = std::nextafter(10.0, 11.0);
+  f.options.wrongSideMargin = 0.02e-3 / 3.0;
   f.result.method = ble::FitMethod::Classify;
   f.result.coefficients = {std::nextafter(5100.0, 9e9), 6950.0 + 1.0 / 7.0, 2.0 / 3.0 * 1e-3, 0.1 + 0.2,
                            0.132,  0.45 / 7.0, std::sqrt(2.0) / 2.0, -0.0125 / 3.0};
@@ -140,6 +143,9 @@ void checkSameFit(const StoredFit& a, const StoredFit& b) {
   for (int i = 0; i < 4; ++i) CHECK(sameBits(a.options.angleExponentStart[i], b.options.angleExponentStart[i]));
   CHECK(a.options.crossValidationFolds == b.options.crossValidationFolds);
   CHECK(a.options.globalEvaluations == b.options.globalEvaluations);
+  CHECK(sameBits(a.options.minimumTransitionWidth, b.options.minimumTransitionWidth));
+  CHECK(sameBits(a.options.wrongSideWeight, b.options.wrongSideWeight));
+  CHECK(sameBits(a.options.wrongSideMargin, b.options.wrongSideMargin));
   CHECK((a.result.method == b.result.method));
   for (int i = 0; i < 64; ++i) {
     CAPTURE(i);
@@ -216,6 +222,10 @@ TEST_CASE("ble store: a fit comes back exactly as saved, after the file is close
   // The absent accuracy is NULL in the file, not 0.
   RawDb raw(path);
   CHECK(raw.integer("SELECT count(*) FROM fits WHERE cv_accuracy IS NULL") == 1);
+  // The options JSON names the transition width and the hinge with their SI units.
+  CHECK(raw.integer("SELECT count(*) FROM fits WHERE json_extract(options, '$.minimum_transition_width_m_s') > 250.33 "
+                    "AND json_extract(options, '$.wrong_side_weight') > 10 "
+                    "AND json_extract(options, '$.wrong_side_margin_m') BETWEEN 6.6e-6 AND 6.7e-6") == 2);
 }
 
 TEST_CASE("ble store: listFits gives summaries ordered by name; saveFit sets the time when none is given") {
@@ -411,10 +421,15 @@ TEST_CASE("ble store: a pre-release (schema 0) store is migrated and keeps its f
     CHECK(f.result.covariance[0] == 0.0);
     CHECK(f.options.defaultProjectileDensity == 2796.0);
     CHECK(f.options.globalEvaluations == 100);
-    // Keys the old JSON lacks keep FitOptions' defaults.
+    // Keys the old JSON lacks keep FitOptions' defaults, except the wrong-side hinge: it came later with a default
+    // that changes the fit, and a row without it was fitted by plain least squares.
     const ble::FitOptions defaults;
     CHECK(f.options.angleExponentStart == defaults.angleExponentStart);
     CHECK(f.options.bounds.upper.VH == defaults.bounds.upper.VH);
+    CHECK(f.options.minimumTransitionWidth == defaults.minimumTransitionWidth);
+    CHECK(defaults.wrongSideWeight != 0.0);
+    CHECK(f.options.wrongSideWeight == 0.0);
+    CHECK(f.options.wrongSideMargin == 0.0);
     REQUIRE(f.points.size() == 2);
     CHECK(f.points[1].diameter == 0.0014);
     CHECK(f.points[1].perforated);

@@ -85,6 +85,15 @@ void checkOptions(const FitOptions& options, size_t pointCount) {
                      "minimum V_H - V_L of " + number(options.minimumTransitionWidth) + " m/s",
                      "a finite width > 0 m/s (V_L < V_H is required)");
   }
+  if (!(std::isfinite(options.wrongSideWeight) && options.wrongSideWeight >= 0)) {
+    throw InputError(optionLocation("wrongSideWeight"), "wrong-side weight " + number(options.wrongSideWeight),
+                     "a finite weight >= 0 (0 = plain least squares)");
+  }
+  if (!(std::isfinite(options.wrongSideMargin) && options.wrongSideMargin >= 0)) {
+    throw InputError(optionLocation("wrongSideMargin"),
+                     "wrong-side margin " + number(units::toUnit(options.wrongSideMargin, "mm")) + " mm",
+                     "a finite margin >= 0 mm");
+  }
   if (!std::isfinite(options.defaultProjectileDensity) || options.defaultProjectileDensity < 0) {
     throw InputError(optionLocation("defaultProjectileDensity"),
                      "default projectile density " + number(options.defaultProjectileDensity) + " kg/m3",
@@ -243,8 +252,126 @@ struct QuadraticForm {
   }
 };
 
+// The hinge in the residuals' units (mm).
+fd::Hinge hingeOf(const FitOptions& options) {
+  return {options.wrongSideWeight, options.wrongSideMargin * fd::kLengthScale};
+}
+
+// Σ_i f_i(d_i - x a_i - y b_i) with f_i(r) = r² + (w v_i(r))², v_i = fd::hingeViolation: the hinge-augmented
+// least-squares objective as a function of (x, y) = (C_L, C_H) for the other coefficients fixed. Each f_i is convex
+// and continuously differentiable in r (one quadratic, and another past the hinge point r = ±margin), so the sum is
+// a convex piecewise quadratic in (x, y); without the hinge it is QuadraticForm.
+struct HingedForm {
+  std::vector<double> a, b, d;
+  std::vector<bool> perforated;
+  fd::Hinge hinge;
+
+  double residual(size_t i, double x, double y) const { return d[i] - x * a[i] - y * b[i]; }
+  // σ = +1 for perforated, -1 for stopped: the hinge of point i is active where g = margin - σ r > 0.
+  double sign(size_t i) const { return perforated[i] ? 1.0 : -1.0; }
+
+  double value(double x, double y) const {
+    double sum = 0;
+    for (size_t i = 0; i < d.size(); ++i) {
+      const double r = residual(i, x, y);
+      const double v = hinge.weight * fd::hingeViolation(r, perforated[i], hinge.margin);
+      sum += r * r + v * v;
+    }
+    return sum;
+  }
+  // The quadratic that is the objective around (x, y), hinges as they are there (without them when !withHinge): an
+  // active hinge adds w² (m - σ r)² to r², i.e. (1 + w²) (r - σ m w² / (1 + w²))² up to a constant, a weighted
+  // least-squares term with a shifted target. It has the objective's gradient at (x, y).
+  QuadraticForm localForm(double x, double y, bool withHinge) const {
+    QuadraticForm form;
+    const double w2 = withHinge ? hinge.weight * hinge.weight : 0.0;
+    for (size_t i = 0; i < d.size(); ++i) {
+      double weight = 1.0, target = d[i];
+      if (w2 > 0 && fd::hingeViolation(residual(i, x, y), perforated[i], hinge.margin) > 0) {
+        weight = 1.0 + w2;
+        target = d[i] - sign(i) * hinge.margin * w2 / weight;
+      }
+      form.aa += weight * a[i] * a[i];
+      form.ab += weight * a[i] * b[i];
+      form.bb += weight * b[i] * b[i];
+      form.ad += weight * a[i] * target;
+      form.bd += weight * b[i] * target;
+      form.dd += weight * target * target;
+    }
+    return form;
+  }
+  // The exact minimiser s in [0, 1] of the objective on the segment (x, y) + s (dx, dy). Along it r_i = r + s ρ and
+  // g_i = g + s h (h = -σ ρ) are linear, so the objective is c0 + c1 s + c2 s² between the values of s where some
+  // g_i changes sign; one sweep over those, sorted, toggles each point's hinge once: O(N log N).
+  double bestStep(double x, double y, double dx, double dy) const {
+    const double w2 = hinge.weight * hinge.weight;
+    double c0 = 0, c1 = 0, c2 = 0;
+    std::vector<std::pair<double, size_t>> toggles;
+    std::vector<double> gs(d.size()), hs(d.size());
+    for (size_t i = 0; i < d.size(); ++i) {
+      const double r = residual(i, x, y), rate = -(dx * a[i] + dy * b[i]);
+      c0 += r * r;
+      c1 += 2.0 * r * rate;
+      c2 += rate * rate;
+      const double g = hinge.margin - sign(i) * r, h = -sign(i) * rate;
+      gs[i] = g;
+      hs[i] = h;
+      if (g > 0 || (g == 0 && h > 0)) {  // active just after s = 0
+        c0 += w2 * g * g;
+        c1 += 2.0 * w2 * g * h;
+        c2 += w2 * h * h;
+      }
+      if (h != 0 && -g / h > 0 && -g / h < 1) toggles.emplace_back(-g / h, i);
+    }
+    std::sort(toggles.begin(), toggles.end());
+    const auto quadratic = [&](double s) { return c0 + s * (c1 + s * c2); };
+    double bestS = 0, best = quadratic(0.0), lo = 0.0;
+    for (size_t k = 0; k <= toggles.size(); ++k) {
+      const double hi = k < toggles.size() ? toggles[k].first : 1.0;
+      if (hi > lo) {
+        const double s = c2 > 0 ? std::clamp(-c1 / (2.0 * c2), lo, hi) : (c1 < 0 ? hi : lo);
+        if (quadratic(s) < best) {
+          best = quadratic(s);
+          bestS = s;
+        }
+      }
+      if (k == toggles.size()) break;
+      // Past the break the hinge of point i switches: on when h > 0 (g grows through zero), off when h < 0.
+      const size_t i = toggles[k].second;
+      const double g = gs[i], h = hs[i], on = h > 0 ? 1.0 : -1.0;
+      c0 += on * w2 * g * g;
+      c1 += on * 2.0 * w2 * g * h;
+      c2 += on * w2 * h * h;
+      lo = hi;
+    }
+    return bestS;
+  }
+  // Sets (x, y) to the minimiser in the box and returns the minimum. Without the hinge: QuadraticForm's closed
+  // form. With it, Newton's method for this convex piecewise quadratic, from the plain least-squares solution: the
+  // box minimiser of the local quadratic gives the direction (one of descent unless (x, y) is already optimal,
+  // since the local quadratic has the objective's gradient there), an exact line search the step. Once the local
+  // quadratic is the objective along the whole step, the step lands on the minimiser and the next direction is
+  // zero; that takes a handful of steps. kMaxSteps only guards against round-off ping-pong.
+  double minimiseInBox(double& x, double& y, double xLo, double xHi, double yLo, double yHi) const {
+    localForm(x, y, false).minimiseInBox(x, y, xLo, xHi, yLo, yHi);
+    if (hinge.weight == 0) return std::max(value(x, y), 0.0);
+    constexpr int kMaxSteps = 50;
+    constexpr double kRelativeStep = 1e-13;
+    for (int step = 0; step < kMaxSteps; ++step) {
+      double nx = x, ny = y;
+      localForm(x, y, true).minimiseInBox(nx, ny, xLo, xHi, yLo, yHi);
+      if (std::abs(nx - x) <= kRelativeStep * (xHi - xLo) && std::abs(ny - y) <= kRelativeStep * (yHi - yLo)) break;
+      const double s = bestStep(x, y, nx - x, ny - y);
+      if (s <= 0) break;
+      x += s * (nx - x);
+      y += s * (ny - y);
+    }
+    return std::max(value(x, y), 0.0);
+  }
+};
+
 fd::BoundedProblem leastSquaresProblem(const std::vector<fd::FitPoint>& points, const fd::CoordinateMap& map,
-                                       const Mask& isFree) {
+                                       const Mask& isFree, const fd::Hinge& hinge) {
   fd::BoundedProblem problem;
   problem.size = fd::kCoefficientCount;
   const auto lo = map.searchLower();
@@ -252,45 +379,42 @@ fd::BoundedProblem leastSquaresProblem(const std::vector<fd::FitPoint>& points, 
   problem.lower.assign(lo.begin(), lo.end());
   problem.upper.assign(hi.begin(), hi.end());
   problem.isFree.assign(isFree.begin(), isFree.end());
-  problem.objective = [&points, &map](const double* q) {
+  problem.objective = [&points, &map, hinge](const double* q) {
     double sum = 0;
     for (const fd::FitPoint& point : points) {
-      double r = 0;
-      fd::DiameterResidual{point, &map}(q, &r);
-      sum += r * r;
+      double r[fd::DiameterResidual::kResiduals] = {};
+      fd::DiameterResidual{point, &map, hinge}(q, r);
+      for (double ri : r) sum += ri * ri;
     }
     return sum;
   };
-  problem.addResiduals = [&points, &map](ceres::Problem& ceresProblem, double* q) {
+  problem.addResiduals = [&points, &map, hinge](ceres::Problem& ceresProblem, double* q) {
     for (const fd::FitPoint& point : points) {
-      ceresProblem.AddResidualBlock(new ceres::AutoDiffCostFunction<fd::DiameterResidual, 1, fd::kCoefficientCount>(
-                                        new fd::DiameterResidual{point, &map}),
-                                    nullptr, q);
+      using Cost = ceres::AutoDiffCostFunction<fd::DiameterResidual, fd::DiameterResidual::kResiduals,
+                                               fd::kCoefficientCount>;
+      ceresProblem.AddResidualBlock(new Cost(new fd::DiameterResidual{point, &map, hinge}), nullptr, q);
     }
   };
   if (isFree[2] && isFree[3]) {
     // d_c = C_L A + C_H B with A, B independent of C_L, C_H (each branch and the blend are linear in them), so
-    // for the rest fixed the best constants solve a 2x2 least-squares problem; the search then only roams the
-    // regime boundaries and the angle exponents, where the objective is rough.
+    // for the rest fixed the best constants minimise a function of two variables: a 2x2 least-squares problem
+    // without the hinge, a convex piecewise quadratic with it (HingedForm), both solved exactly. The search then
+    // only roams the regime boundaries and the angle exponents, where the objective is rough.
     problem.profiled = {false, false, true, true, false, false, false, false};
-    problem.profiledObjective = [&points, &map](double* q) {
+    problem.profiledObjective = [&points, &map, hinge](double* q) {
       Scaled u{};
       map.toScaled(q, u.data());
-      QuadraticForm form;
+      HingedForm form;
+      form.hinge = hinge;
       for (const fd::FitPoint& point : points) {
         u[2] = 1.0;
         u[3] = 0.0;
-        const double a = fd::kLengthScale * fd::criticalDiameterScaled(u.data(), point);
+        form.a.push_back(fd::kLengthScale * fd::criticalDiameterScaled(u.data(), point));
         u[2] = 0.0;
         u[3] = 1.0;
-        const double b = fd::kLengthScale * fd::criticalDiameterScaled(u.data(), point);
-        const double d = fd::kLengthScale * point.diameter;
-        form.aa += a * a;
-        form.ab += a * b;
-        form.bb += b * b;
-        form.ad += a * d;
-        form.bd += b * d;
-        form.dd += d * d;
+        form.b.push_back(fd::kLengthScale * fd::criticalDiameterScaled(u.data(), point));
+        form.d.push_back(fd::kLengthScale * point.diameter);
+        form.perforated.push_back(point.perforated);
       }
       return form.minimiseInBox(q[2], q[3], map.lower[2], map.upper[2], map.lower[3], map.upper[3]);
     };
@@ -357,9 +481,10 @@ std::string joined(const std::vector<std::string>& parts) {
 // One least-squares stage: fits the free coefficients from q, the others held. Returns the new q and appends to
 // `onBounds` the coefficients that ended on a bound.
 std::vector<double> leastSquaresStage(const std::vector<fd::FitPoint>& points, const fd::CoordinateMap& map,
-                                      const std::vector<double>& q, const Mask& isFree, int globalEvaluations,
-                                      double& sumOfSquares, std::vector<std::string>& onBounds) {
-  const fd::BoundedProblem problem = leastSquaresProblem(points, map, isFree);
+                                      const std::vector<double>& q, const Mask& isFree, const fd::Hinge& hinge,
+                                      int globalEvaluations, double& sumOfSquares,
+                                      std::vector<std::string>& onBounds) {
+  const fd::BoundedProblem problem = leastSquaresProblem(points, map, isFree, hinge);
   std::vector<double> result = fd::minimise(problem, q, globalEvaluations);
   sumOfSquares = problem.objective(result.data());
   for (auto& name : coordinatesOnBounds(problem, map, result)) onBounds.push_back(std::move(name));
@@ -376,7 +501,8 @@ struct MethodResult {
 
 // Least-squares covariance of one stage (or the joint fit) into `result`; false with a note when unavailable.
 bool addLeastSquaresCovariance(const std::vector<fd::FitPoint>& points, const Scaled& u, const Mask& isFree,
-                               double sumOfSquares, const std::string& label, MethodResult& result) {
+                               const fd::Hinge& hinge, double sumOfSquares, const std::string& label,
+                               MethodResult& result) {
   const int freeCount = static_cast<int>(std::count(isFree.begin(), isFree.end(), true));
   const int dof = static_cast<int>(points.size()) - freeCount;
   if (dof <= 0) {
@@ -384,13 +510,19 @@ bool addLeastSquaresCovariance(const std::vector<fd::FitPoint>& points, const Sc
     return false;
   }
   std::array<double, 64> block{};
-  if (!fd::leastSquaresCovariance(points, u, isFree, sumOfSquares / dof, block)) {
+  if (!fd::leastSquaresCovariance(points, u, isFree, hinge, sumOfSquares / dof, block)) {
     result.covarianceNote += label +
                              ": the Jacobian is rank deficient at the optimum (some coefficient does not change "
                              "any residual there, e.g. no point between V1 and V2 pins V_L and V_H). ";
     return false;
   }
   for (int k = 0; k < 64; ++k) result.covariance[k] += block[k];
+  const std::string hingeNote =
+      "With the wrong-side hinge, the Jacobian and the residual variance include the active hinge terms: the "
+      "curvature of the penalised objective, not of a likelihood. ";
+  if (hinge.weight > 0 && result.covarianceNote.find(hingeNote) == std::string::npos) {
+    result.covarianceNote += hingeNote;
+  }
   return true;
 }
 
@@ -433,14 +565,15 @@ MethodResult fitTwoStage(const std::vector<ImpactPoint>& raw, const std::vector<
   double ssr1 = 0, ssr2 = 0;
   const Mask stage1{true, true, true, true, false, false, false, false};
   const Mask stage2{false, false, false, false, true, true, true, true};
-  const auto q1 = leastSquaresStage(normal, map, {q0.begin(), q0.end()}, stage1, options.globalEvaluations, ssr1,
+  const fd::Hinge w = hingeOf(options);
+  const auto q1 = leastSquaresStage(normal, map, {q0.begin(), q0.end()}, stage1, w, options.globalEvaluations, ssr1,
                                     onBounds);
-  const auto q2 = leastSquaresStage(oblique, map, q1, stage2, options.globalEvaluations, ssr2, onBounds);
+  const auto q2 = leastSquaresStage(oblique, map, q1, stage2, w, options.globalEvaluations, ssr2, onBounds);
 
   MethodResult result;
   result.coefficients = toScaled(map, q2.data());
-  const bool ok1 = addLeastSquaresCovariance(normal, result.coefficients, stage1, ssr1, "Stage 1", result);
-  const bool ok2 = addLeastSquaresCovariance(oblique, result.coefficients, stage2, ssr2, "Stage 2", result);
+  const bool ok1 = addLeastSquaresCovariance(normal, result.coefficients, stage1, w, ssr1, "Stage 1", result);
+  const bool ok2 = addLeastSquaresCovariance(oblique, result.coefficients, stage2, w, ssr2, "Stage 2", result);
   result.covarianceAvailable = ok1 && ok2;
   if (!result.covarianceAvailable) {
     result.covariance = {};
@@ -466,10 +599,12 @@ MethodResult fitJointLeastSquares(const std::vector<ImpactPoint>& raw, const std
   std::vector<std::string> onBounds;
   double ssr = 0;
   const Mask all{true, true, true, true, true, true, true, true};
-  const auto q = leastSquaresStage(points, map, {q0.begin(), q0.end()}, all, options.globalEvaluations, ssr, onBounds);
+  const auto q = leastSquaresStage(points, map, {q0.begin(), q0.end()}, all, hingeOf(options),
+                                   options.globalEvaluations, ssr, onBounds);
   MethodResult result;
   result.coefficients = toScaled(map, q.data());
-  result.covarianceAvailable = addLeastSquaresCovariance(points, result.coefficients, all, ssr, "Joint fit", result);
+  result.covarianceAvailable =
+      addLeastSquaresCovariance(points, result.coefficients, all, hingeOf(options), ssr, "Joint fit", result);
   if (!result.covarianceAvailable) result.covariance = {};
   noteBounds(onBounds, result);
   return result;
@@ -490,13 +625,14 @@ MethodResult fitClassify(const std::vector<ImpactPoint>& raw, const std::vector<
                          " points for the 8 coefficients and the scatter of the classify fit",
                      "at least 9 points");
   }
-  // Start: the joint least-squares fit, with σ the spread of ln(d/d_c) about it.
+  // Start: the plain joint least-squares fit (wrongSideWeight does not apply: the likelihood weighs the outcomes
+  // itself), with σ the spread of ln(d/d_c) about it.
   const auto q0 = map.toSearch(startValues(points, options, map));
   std::vector<std::string> ignored;
   double ssr = 0;
   const Mask all{true, true, true, true, true, true, true, true};
   std::vector<double> x =
-      leastSquaresStage(points, map, {q0.begin(), q0.end()}, all, options.globalEvaluations, ssr, ignored);
+      leastSquaresStage(points, map, {q0.begin(), q0.end()}, all, fd::Hinge{}, options.globalEvaluations, ssr, ignored);
   const Scaled uLeastSquares = toScaled(map, x.data());
   double spread = 0;
   for (const fd::FitPoint& p : points) {

@@ -139,11 +139,29 @@ double normalQuantile(double p);
 
 // ---- Objectives ----------------------------------------------------------------------------------------------
 
-// Least squares on d: r = (d - d_c) in mm. Coefficients either in search coordinates (through `map`) or scaled
-// (map == nullptr).
+// The wrong-side hinge of FitOptions: a point adds (weight · v)² to the least-squares objective, v being how far it
+// is on the wrong side of the curve less `margin` (see hingeViolation). weight = 0 is plain least squares.
+struct Hinge {
+  double weight = 0;  // dimensionless
+  double margin = 0;  // mm, like the residuals
+};
+
+// How far (mm) a point with residual r = d - d_c (mm) falls short of lying `margin` on its own side of the curve
+// (perforated above it, stopped below it); 0 when it does. With margin 0 it is the distance on the wrong side.
+template <typename T>
+T hingeViolation(const T& residual, bool perforated, double margin) {
+  const T shortfall = perforated ? margin - residual : margin + residual;
+  return shortfall > T(0.0) ? shortfall : T(0.0);
+}
+
+// Least squares on d with the wrong-side hinge, two residuals per point: r = (d - d_c) in mm, and weight ·
+// hingeViolation(r). Both are continuous in the coefficients, so Σ r² is continuously differentiable. Coefficients
+// either in search coordinates (through `map`) or scaled (map == nullptr).
 struct DiameterResidual {
+  static constexpr int kResiduals = 2;
   FitPoint point;
   const CoordinateMap* map = nullptr;
+  Hinge hinge;
 
   template <typename T>
   bool operator()(const T* x, T* residual) const {
@@ -154,6 +172,7 @@ struct DiameterResidual {
       for (int i = 0; i < kCoefficientCount; ++i) u[i] = x[i];
     }
     residual[0] = kLengthScale * (point.diameter - criticalDiameterScaled(u, point));
+    residual[1] = hinge.weight * hingeViolation(residual[0], point.perforated, hinge.margin);
     return true;
   }
 };
@@ -215,11 +234,12 @@ struct BoundedProblem {
 // the best point found.
 std::vector<double> minimise(const BoundedProblem& problem, std::vector<double> start, int globalEvaluations);
 
-// ceres::Covariance of the scaled coefficients for least squares on d (residuals in mm), on the free ones only,
-// multiplied by `residualVariance` (mm²) and converted to SI. False when Ceres finds the Jacobian rank deficient.
+// ceres::Covariance of the scaled coefficients for least squares on d (DiameterResidual with the given hinge,
+// residuals in mm), on the free ones only, multiplied by `residualVariance` (mm²) and converted to SI. False when
+// Ceres finds the Jacobian rank deficient.
 bool leastSquaresCovariance(const std::vector<FitPoint>& points, const std::array<double, kCoefficientCount>& scaled,
-                            const std::array<bool, kCoefficientCount>& isFree, double residualVariance,
-                            std::array<double, 64>& covarianceSI);
+                            const std::array<bool, kCoefficientCount>& isFree, const Hinge& hinge,
+                            double residualVariance, std::array<double, 64>& covarianceSI);
 
 // Hessian of the probit negative log-likelihood in (scaled coefficients, ln σ), with every point's regime
 // frozen at x; see fit_solvers.cpp for why.

@@ -207,16 +207,17 @@ std::vector<double> minimise(const BoundedProblem& problem, std::vector<double> 
 // ---- Covariances ---------------------------------------------------------------------------------------------
 
 bool leastSquaresCovariance(const std::vector<FitPoint>& points, const std::array<double, kCoefficientCount>& scaled,
-                            const std::array<bool, kCoefficientCount>& isFree, double residualVariance,
-                            std::array<double, 64>& covarianceSI) {
+                            const std::array<bool, kCoefficientCount>& isFree, const Hinge& hinge,
+                            double residualVariance, std::array<double, 64>& covarianceSI) {
   // A fresh problem in scaled coefficients (no V_L < V_H map), so the covariance comes out in the coefficients
   // themselves; the held ones are constant through a SubsetManifold and get zero rows and columns.
   std::array<double, kCoefficientCount> u = scaled;
   ceres::Problem problem;
   for (const FitPoint& point : points) {
-    problem.AddResidualBlock(new ceres::AutoDiffCostFunction<DiameterResidual, 1, kCoefficientCount>(
-                                 new DiameterResidual{point, nullptr}),
-                             nullptr, u.data());
+    problem.AddResidualBlock(
+        new ceres::AutoDiffCostFunction<DiameterResidual, DiameterResidual::kResiduals, kCoefficientCount>(
+            new DiameterResidual{point, nullptr, hinge}),
+        nullptr, u.data());
   }
   std::vector<int> held;
   for (int i = 0; i < kCoefficientCount; ++i) {
@@ -234,11 +235,16 @@ bool leastSquaresCovariance(const std::vector<FitPoint>& points, const std::arra
     for (int i = 0; i < kCoefficientCount; ++i) {
       if (isFree[i]) freeIndices.push_back(i);
     }
-    Eigen::MatrixXd jacobian(points.size(), freeIndices.size());
+    constexpr int m = DiameterResidual::kResiduals;
+    Eigen::MatrixXd jacobian(m * points.size(), freeIndices.size());
     for (size_t k = 0; k < points.size(); ++k) {
-      Jet r;
-      DiameterResidual{points[k], nullptr}(x.data(), &r);
-      for (size_t j = 0; j < freeIndices.size(); ++j) jacobian(static_cast<long>(k), static_cast<long>(j)) = r.v[freeIndices[j]];
+      Jet r[m];
+      DiameterResidual{points[k], nullptr, hinge}(x.data(), r);
+      for (int row = 0; row < m; ++row) {
+        for (size_t j = 0; j < freeIndices.size(); ++j) {
+          jacobian(static_cast<long>(m * k) + row, static_cast<long>(j)) = r[row].v[freeIndices[j]];
+        }
+      }
     }
     if (!jacobian.allFinite()) return false;
     const Eigen::JacobiSVD<Eigen::MatrixXd> svd(jacobian);

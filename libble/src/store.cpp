@@ -347,11 +347,15 @@ std::string optionsJson(const FitOptions& o) {
   for (double v : o.angleExponentStart) j["angle_exponent_start"].push_back(jsonNumber(v));
   j["cross_validation_folds"] = o.crossValidationFolds;
   j["global_evaluations"] = o.globalEvaluations;
+  j["minimum_transition_width_m_s"] = jsonNumber(o.minimumTransitionWidth);
+  j["wrong_side_weight"] = jsonNumber(o.wrongSideWeight);
+  j["wrong_side_margin_m"] = jsonNumber(o.wrongSideMargin);
   return j.dump();
 }
 
-// A key that is absent keeps its FitOptions default: an option added later did not exist when the fit was made, and
-// its default is the behaviour the fit had.
+// A key that is absent takes the value that reproduces what the fit did before the option existed: the FitOptions
+// default, except for the wrong-side hinge, which came later with a default that changes the fit; rows without it
+// were plain least squares (weight 0, margin 0).
 FitOptions optionsFromJson(const std::string& text, const InputLocation& where) {
   nlohmann::json j;
   try {
@@ -379,6 +383,12 @@ FitOptions optionsFromJson(const std::string& text, const InputLocation& where) 
     }
     if (j.contains("cross_validation_folds")) o.crossValidationFolds = j["cross_validation_folds"].get<int>();
     if (j.contains("global_evaluations")) o.globalEvaluations = j["global_evaluations"].get<int>();
+    if (j.contains("minimum_transition_width_m_s"))
+      o.minimumTransitionWidth = numberFromJson(j["minimum_transition_width_m_s"], at("minimum_transition_width_m_s"));
+    o.wrongSideWeight =
+        j.contains("wrong_side_weight") ? numberFromJson(j["wrong_side_weight"], at("wrong_side_weight")) : 0.0;
+    o.wrongSideMargin =
+        j.contains("wrong_side_margin_m") ? numberFromJson(j["wrong_side_margin_m"], at("wrong_side_margin_m")) : 0.0;
   } catch (const nlohmann::json::exception& e) {
     throw InputError(where, std::string("has a value of the wrong type: ") + e.what(), "the JSON object blt writes");
   }
