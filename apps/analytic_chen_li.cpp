@@ -69,7 +69,7 @@ void run(const CLI::App& cmd, const ChenLiOptions& o) {
   std::string elasticSource = "nu: default 0.3";
   double cardShearModulus = 0;
   if (!o.material.empty()) {
-    const Material& card = MaterialLibrary::load().get(o.material);
+    const Material card = MaterialLibrary::load().get(o.material);
     const analytic::PlateProperties p = analytic::plateProperties(card);
     in.plateDensity = p.density;
     densitySource = "material " + o.material;

@@ -315,7 +315,9 @@ MaterialLibrary MaterialLibrary::load(const std::string& directory) {
   return lib;
 }
 
-const Material& MaterialLibrary::get(const std::string& id) const {
+Material MaterialLibrary::get(const std::string& id) && { return static_cast<const MaterialLibrary&>(*this).get(id); }
+
+const Material& MaterialLibrary::get(const std::string& id) const& {
   auto it = materials_.find(id);
   if (it == materials_.end()) {
     std::string present;

@@ -54,7 +54,10 @@ class MaterialLibrary {
   // Loads every *.toml file of a directory that describes a material (files with a top-level 'density').
   static MaterialLibrary load(const std::string& directory = defaultDirectory());
 
-  const Material& get(const std::string& id) const;  // throws InputError listing the ids present
+  // Throws InputError listing the ids present. On a temporary library (MaterialLibrary::load().get(id)) the
+  // material is returned by value, so no reference outlives the library.
+  const Material& get(const std::string& id) const&;
+  Material get(const std::string& id) &&;
   std::vector<std::string> ids() const;
   size_t size() const { return materials_.size(); }
 
