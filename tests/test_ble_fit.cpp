@@ -3,6 +3,7 @@
 // synthetic data drawn from known coefficients, and hand-computed delta-method bands.
 #include <doctest/doctest.h>
 
+#include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -103,6 +104,90 @@ double normalCdf(double x) { return 0.5 * std::erfc(-x / std::sqrt(2.0)); }
 // are the same on every platform.
 double uniform(std::mt19937_64& rng) { return static_cast<double>(rng() >> 11) * 0x1.0p-53; }
 
+// Synthetic diameters drawn about seed 000's Table 8 curve: at each angle (deg) and velocity (km/s) one point with
+// d = d_c (1 + noise), noise uniform in ±3 %, the outcome the side it falls on. Velocities keep 5 % or more from
+// the curve's regime boundaries V1(θ), V2(θ) at 0, 45 and 60 deg (4.73-5.14 and 6.56-7.03 km/s), so that a fit near
+// the truth leaves every point well inside its regime and d_c is smooth in the coefficients there.
+std::vector<ble::ImpactPoint> syntheticDiameters(const std::vector<std::pair<double, std::vector<double>>>& plan,
+                                                 std::uint64_t seed) {
+  const auto truth = ble::ChristiansenCoefficients::seed000Table8();
+  std::mt19937_64 rng(seed);
+  std::vector<ble::ImpactPoint> points;
+  for (const auto& [deg, velocities] : plan) {
+    for (double kms : velocities) {
+      ble::ImpactPoint p;
+      p.velocity = units::fromUnit(kms, "km/s");
+      p.angle = units::fromUnit(deg, "deg");
+      const double dc = ble::criticalDiameter(truth, p.velocity, p.angle, kRho2A12);
+      p.diameter = dc * (1.0 + 0.03 * (2.0 * uniform(rng) - 1.0));
+      p.perforated = p.diameter > dc;
+      p.projectileDensity = kRho2A12;
+      p.source = "synthetic";
+      points.push_back(p);
+    }
+  }
+  return points;
+}
+
+// The conditional covariance of plain least squares on d, written independently of libble's solvers: s² (JᵀJ)⁻¹
+// over the coefficients `free` (SI), the others fixed, J the central-difference Jacobian of d_c at the points
+// (steps of 1e-6 relative: truncation and round-off far below 1e-3), s² = Σ (d - d_c)² / (N - fitted), fitted the
+// number of coefficients the fit of these points adjusted (8 for a joint fit, 4 for a stage of the two-stage one).
+Eigen::MatrixXd referenceCovariance(const std::vector<ble::ImpactPoint>& points, const ble::ChristiansenCoefficients& c,
+                                    const std::vector<int>& free, int fitted) {
+  const auto at = c.toArray();
+  const auto dcAt = [&](const std::array<double, 8>& p, const ble::ImpactPoint& point) {
+    return ble::criticalDiameter(ble::ChristiansenCoefficients::fromArray(p.data()), point.velocity, point.angle,
+                                 kRho2A12);
+  };
+  Eigen::MatrixXd jacobian(static_cast<long>(points.size()), static_cast<long>(free.size()));
+  double sum = 0;
+  for (size_t k = 0; k < points.size(); ++k) {
+    const double r = points[k].diameter - dcAt(at, points[k]);
+    sum += r * r;
+    for (size_t j = 0; j < free.size(); ++j) {
+      const size_t i = static_cast<size_t>(free[j]);
+      const double step = 1e-6 * std::max(std::abs(at[i]), 1.0);
+      auto plus = at, minus = at;
+      plus[i] += step;
+      minus[i] -= step;
+      jacobian(static_cast<long>(k), static_cast<long>(j)) =
+          (dcAt(plus, points[k]) - dcAt(minus, points[k])) / (2.0 * step);
+    }
+  }
+  const double s2 = sum / static_cast<double>(points.size() - static_cast<size_t>(fitted));
+  return s2 * (jacobian.transpose() * jacobian).inverse();
+}
+
+// The fit's covariance on `free` against referenceCovariance: variances to 1e-3 relative, covariances to 1e-3 in
+// correlation (they may be near zero, where a relative test means nothing).
+void checkFreeBlock(const ble::FitResult& fit, const std::vector<ble::ImpactPoint>& points,
+                    const std::vector<int>& free, int fitted) {
+  const Eigen::MatrixXd reference = referenceCovariance(points, fit.coefficients, free, fitted);
+  const auto cov = [&](int i, int j) { return fit.covariance[static_cast<size_t>(i * 8 + j)]; };
+  for (size_t a = 0; a < free.size(); ++a) {
+    const int i = free[a];
+    CAPTURE(ble::ChristiansenCoefficients::kNames[static_cast<size_t>(i)]);
+    CHECK(cov(i, i) == relApprox(reference(static_cast<long>(a), static_cast<long>(a)), 1e-3));
+    for (size_t b = 0; b < free.size(); ++b) {
+      const int j = free[b];
+      const double scale = std::sqrt(reference(static_cast<long>(a), static_cast<long>(a)) *
+                                     reference(static_cast<long>(b), static_cast<long>(b)));
+      CAPTURE(ble::ChristiansenCoefficients::kNames[static_cast<size_t>(j)]);
+      CHECK(std::abs(cov(i, j) - reference(static_cast<long>(a), static_cast<long>(b))) < 1e-3 * scale);
+    }
+  }
+}
+
+// Row and column i of the covariance are zero: coefficient i was held.
+void checkHeld(const ble::FitResult& fit, int i) {
+  CAPTURE(ble::ChristiansenCoefficients::kNames[static_cast<size_t>(i)]);
+  for (int j = 0; j < 8; ++j) {
+    CHECK(fit.covariance[static_cast<size_t>(i * 8 + j)] == 0.0);
+    CHECK(fit.covariance[static_cast<size_t>(j * 8 + i)] == 0.0);
+  }
+}
+
 }  // namespace
 
 TEST_CASE("ble fit: the MSE metric reproduces REFERENCE §1 for seed 000's Table 8 coefficients") {
@@ -168,6 +253,128 @@ TEST_CASE("ble fit: two-stage on seed 000's data keeps all 13 Table 1 outcomes a
   CHECK(fitted <= seed);
 }
 
+TEST_CASE("ble fit: the default two-stage seed fit holds the coefficients on bounds and gives a band") {
+  // With the default options the seed's two-stage fit ends with coefficients on their bounds (V_H on 12 km/s,
+  // X_H on -1); once V_H is beyond every θ = 0 velocity nothing pins it, and stage 1's Jacobian is rank deficient
+  // with it free. The covariance holds such coefficients: their rows and columns are zero, the note names them,
+  // the free ones keep a positive variance, and the band at 7 km/s, 45 deg brackets d_c.
+  std::vector<ble::ImpactPoint> all = seedFile("seed000_table1_tests.csv");
+  for (const auto& p : ble::readImpactCsv(std::string(BLT_DATA_DIR) + "/examples/seed000_table6_7to9kms.csv")) {
+    all.push_back(p);
+  }
+  for (const auto& p : seedStage2()) all.push_back(p);
+  ble::FitOptions options;
+  options.defaultProjectileDensity = kRho2A12;
+  const ble::FitResult fit = ble::fitChristiansen(all, options);
+  CHECK(fit.pointCount == 63);
+  MESSAGE("two-stage covariance note: " << fit.covarianceNote);
+  REQUIRE(fit.covarianceAvailable);
+
+  const auto value = fit.coefficients.toArray();
+  const auto lower = options.bounds.lower.toArray(), upper = options.bounds.upper.toArray();
+  int onBound = 0, held = 0;
+  for (int i = 0; i < 8; ++i) {
+    const std::string name = ble::ChristiansenCoefficients::kNames[static_cast<size_t>(i)];
+    CAPTURE(name);
+    const double tolerance = 1e-6 * (upper[i] - lower[i]);
+    const bool bound = value[i] - lower[i] <= tolerance || upper[i] - value[i] <= tolerance;
+    const double variance = fit.covariance[static_cast<size_t>(i * 9)];
+    // The note lists the held ones as "..., NAME (stage k, why)".
+    const bool named = fit.covarianceNote.find(": " + name + " (stage") != std::string::npos ||
+                       fit.covarianceNote.find(", " + name + " (stage") != std::string::npos;
+    onBound += bound;
+    held += named;
+    if (bound) CHECK(named);
+    if (named) {
+      for (int j = 0; j < 8; ++j) {
+        CHECK(fit.covariance[static_cast<size_t>(i * 8 + j)] == 0.0);
+        CHECK(fit.covariance[static_cast<size_t>(j * 8 + i)] == 0.0);
+      }
+    } else {
+      CHECK(variance > 0.0);
+    }
+  }
+  MESSAGE(onBound << " coefficients on bounds, " << held << " held");
+  CHECK(onBound >= 1);  // the case this test is about
+  CHECK(fit.covarianceNote.find("conditional") != std::string::npos);
+
+  const auto band =
+      ble::criticalDiameterBand(fit, units::fromUnit(7.0, "km/s"), units::fromUnit(45.0, "deg"), kRho2A12);
+  MESSAGE("d_c at 7 km/s, 45 deg: " << band.criticalDiameter * 1e3 << " mm, 90 % band " << band.low * 1e3 << " to "
+                                    << band.high * 1e3 << " mm");
+  CHECK(band.low > 0.0);
+  CHECK(band.low < band.criticalDiameter);
+  CHECK(band.high > band.criticalDiameter);
+}
+
+TEST_CASE("ble fit: a coefficient held on its bound leaves the others s^2 (J^T J)^-1 of the free block") {
+  // Synthetic diameters from seed 000's Table 8 curve (X = 0.48) with 3 % noise, fitted jointly by plain least
+  // squares with X's upper bound put at 0.40, so that X ends on it. The covariance of the other seven must be
+  // s² (JᵀJ)⁻¹ with J their finite-difference Jacobian at the fit (referenceCovariance), X's row and column zero.
+  const std::vector<double> velocities{2.0, 2.5, 3.0, 3.5, 4.0, 4.4, 5.4, 5.8, 6.2, 7.4, 8.0, 8.5, 9.0};
+  const auto points = syntheticDiameters({{0.0, velocities}, {45.0, velocities}, {60.0, velocities}}, 20240611);
+  ble::FitOptions options;
+  options.method = ble::FitMethod::Joint;
+  options.wrongSideWeight = 0;
+  options.globalEvaluations = 1000;
+  options.bounds.upper.X = 0.40;
+  options.angleExponentStart[2] = 0.3;
+  const ble::FitResult fit = ble::fitChristiansen(points, options);
+  const auto& c = fit.coefficients;
+  MESSAGE("held X: VL " << c.VL << " VH " << c.VH << " CL " << c.CL << " CH " << c.CH << " SL " << c.SL << " SH "
+                        << c.SH << " X " << c.X << " XH " << c.XH << "; note: " << fit.covarianceNote);
+  REQUIRE(fit.covarianceAvailable);
+  REQUIRE(std::abs(c.X - 0.40) < 1e-6);
+  CHECK(c.VH - c.VL > options.minimumTransitionWidth + 1.0);  // not tied: every other coefficient is free
+  CHECK(fit.covarianceNote.find("zero variance: X (on its upper bound, 0.4)") != std::string::npos);
+  checkFreeBlock(fit, points, {0, 1, 2, 3, 4, 5, 7}, 8);
+  checkHeld(fit, 6);
+}
+
+TEST_CASE("ble fit: a coefficient the data do not determine is held, and the others keep s^2 (J^T J)^-1") {
+  // Two-stage, plain least squares, on synthetic diameters from seed 000's Table 8 curve (3 % noise). No θ = 0
+  // point is faster than 6.2 km/s and V_H is kept within [6.3, 7.5] km/s, so every θ = 0 point at or above V1 is
+  // in the blend, d_c = a + b V there, and V_H and C_H only set its slope b: their Jacobian columns in stage 1 are
+  // proportional, the Jacobian has rank 3 of 4, and before the holding there was no covariance. One of the two
+  // must be held (which one is the pivoting's choice) and named as not determined; the other stage-1 coefficients
+  // get s² (JᵀJ)⁻¹ of the θ = 0 points with it fixed, the stage-2 ones that of the oblique points (which reach
+  // past V2(θ), so that S_H and X_H are determined) with stage 1 fixed.
+  const std::vector<double> slow{2.0, 2.5, 3.0, 3.5, 4.0, 4.4, 5.4, 5.8, 6.2};
+  const std::vector<double> fast{2.0, 2.5, 3.0, 3.5, 4.0, 4.4, 5.4, 5.8, 6.2, 7.4, 8.0, 8.5, 9.0};
+  const auto normal = syntheticDiameters({{0.0, slow}}, 20240612);
+  const auto oblique = syntheticDiameters({{45.0, fast}, {60.0, fast}}, 20240613);
+  std::vector<ble::ImpactPoint> all = normal;
+  all.insert(all.end(), oblique.begin(), oblique.end());
+  ble::FitOptions options;
+  options.wrongSideWeight = 0;
+  options.globalEvaluations = 1000;
+  options.bounds.lower.VH = 6300;
+  options.bounds.upper.VH = 7500;
+  const ble::FitResult fit = ble::fitChristiansen(all, options);
+  const auto& c = fit.coefficients;
+  MESSAGE("V_H and C_H undetermined: VL " << c.VL << " VH " << c.VH << " CL " << c.CL << " CH " << c.CH << " SL "
+                                          << c.SL << " SH " << c.SH << " X " << c.X << " XH " << c.XH
+                                          << "; note: " << fit.covarianceNote);
+  REQUIRE(fit.covarianceAvailable);
+  // The premise: V_H inside its bounds (else it would be held for that) and above every θ = 0 point.
+  REQUIRE(c.VH > options.bounds.lower.VH + 1.0);
+  REQUIRE(c.VH < options.bounds.upper.VH - 1.0);
+  REQUIRE(c.VH - c.VL > options.minimumTransitionWidth + 1.0);
+  const bool vhHeld = fit.covariance[1 * 9] == 0.0, chHeld = fit.covariance[3 * 9] == 0.0;
+  REQUIRE(vhHeld != chHeld);  // exactly one of the pair
+  const int held = vhHeld ? 1 : 3, other = vhHeld ? 3 : 1;
+  const std::string name = ble::ChristiansenCoefficients::kNames[static_cast<size_t>(held)];
+  CHECK(fit.covarianceNote.find("zero variance: " + name + " (stage 1, not determined by the data") !=
+        std::string::npos);
+  checkHeld(fit, held);
+  checkFreeBlock(fit, normal, {0, 2, other}, 4);
+  checkFreeBlock(fit, oblique, {4, 5, 6, 7}, 4);
+  // Stage 2 takes stage 1 as exact: no covariance between the blocks.
+  for (int i : {0, 1, 2, 3}) {
+    for (int j : {4, 5, 6, 7}) CHECK(fit.covariance[static_cast<size_t>(i * 8 + j)] == 0.0);
+  }
+}
+
 TEST_CASE("ble fit: plain least squares (no hinge) matches a brute-force stage 1 and misplaces Table 1 test 11") {
   // wrongSideWeight = 0 is the seed's own method. Its stage 1 must reach the brute-force grid optimum (every grid
   // point is a feasible fit), which beats the seed's MSEs, but it puts Table 1 test 11 (1.0 mm at 5.15 km/s,
@@ -204,6 +411,14 @@ TEST_CASE("ble fit: plain least squares (no hinge) matches a brute-force stage 1
   CHECK(wrongFit == wrongGrid);
   REQUIRE(wrongGrid.size() == 1);
   CHECK(wrongGrid.front().ends_with("seed000_table1_tests.csv:17"));  // line 17 holds test 11
+
+  // This stage 1 ends on the minimum transition width (V_H = V_L + 100 m/s): the covariance keeps that width, so
+  // V_H - V_L has zero variance, i.e. V_H's row of the stage-1 block is V_L's.
+  REQUIRE(std::abs(c.VH - c.VL - options.minimumTransitionWidth) < 0.01);
+  REQUIRE(fit.covarianceAvailable);
+  CHECK(fit.covarianceNote.find("Tied: VH (stage 1, on VL + 100 m/s") != std::string::npos);
+  CHECK(fit.covariance[0] > 0.0);
+  for (size_t j = 0; j < 4; ++j) CHECK(fit.covariance[8 + j] == relApprox(fit.covariance[j], 1e-9));
 }
 
 TEST_CASE("ble fit: classify recovers the coefficients that generated synthetic binary data") {
@@ -256,6 +471,44 @@ TEST_CASE("ble fit: classify recovers the coefficients that generated synthetic 
     CAPTURE(standardError);
     CHECK(standardError > 0);
     CHECK(std::abs(estimate[i] - expected[i]) < 4.0 * standardError);
+  }
+}
+
+TEST_CASE("ble fit: classify holds a coefficient on its bound out of the observed information") {
+  // Binary outcomes drawn as in the test above (seed 000's Table 8 curve, X = 0.48, σ = 0.05), fitted with X's
+  // upper bound at 0.40, so that X ends on it. Its row and column of the covariance must be zero and the note must
+  // name it; the other coefficients keep positive variances, σ profiled (it is free: the outcomes overlap).
+  const auto truth = ble::ChristiansenCoefficients::seed000Table8();
+  std::mt19937_64 rng(20240614);
+  std::vector<ble::ImpactPoint> points;
+  for (int i = 0; i < 150; ++i) {
+    ble::ImpactPoint p;
+    p.velocity = units::fromUnit(2.0 + 7.0 * uniform(rng), "km/s");
+    p.angle = units::fromUnit(60.0 * uniform(rng), "deg");
+    const double dc = ble::criticalDiameter(truth, p.velocity, p.angle, kRho2A12);
+    p.diameter = dc * std::exp(0.15 * (2.0 * uniform(rng) - 1.0));
+    p.perforated = uniform(rng) < normalCdf(std::log(p.diameter / dc) / 0.05);
+    p.projectileDensity = kRho2A12;
+    points.push_back(p);
+  }
+  ble::FitOptions options;
+  options.method = ble::FitMethod::Classify;
+  options.globalEvaluations = 800;
+  options.bounds.upper.X = 0.40;
+  options.angleExponentStart[2] = 0.3;
+  const ble::FitResult fit = ble::fitChristiansen(points, options);
+  const auto& c = fit.coefficients;
+  MESSAGE("classify, X held: VL " << c.VL << " VH " << c.VH << " CL " << c.CL << " CH " << c.CH << " SL " << c.SL
+                                  << " SH " << c.SH << " X " << c.X << " XH " << c.XH << " sigma " << fit.scatter
+                                  << "; note: " << fit.covarianceNote);
+  REQUIRE(fit.covarianceAvailable);
+  REQUIRE(std::abs(c.X - 0.40) < 1e-6);
+  CHECK(fit.covarianceNote.find("sigma profiled") != std::string::npos);
+  CHECK(fit.covarianceNote.find("zero variance: X (on its upper bound, 0.4)") != std::string::npos);
+  checkHeld(fit, 6);
+  for (int i : {0, 1, 2, 3, 4, 5, 7}) {
+    CAPTURE(ble::ChristiansenCoefficients::kNames[static_cast<size_t>(i)]);
+    CHECK(fit.covariance[static_cast<size_t>(i * 9)] > 0.0);
   }
 }
 

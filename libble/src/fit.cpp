@@ -5,7 +5,6 @@
 
 #include <ceres/ceres.h>
 
-#include <Eigen/Dense>
 #include <algorithm>
 #include <cctype>
 #include <cmath>
@@ -449,27 +448,62 @@ fd::BoundedProblem classifyProblem(const std::vector<fd::FitPoint>& points, cons
   return problem;
 }
 
-// Names of the free coordinates of x that ended on a bound of the problem's box.
-std::vector<std::string> coordinatesOnBounds(const fd::BoundedProblem& problem, const fd::CoordinateMap& map,
-                                             const std::vector<double>& x) {
-  std::vector<std::string> names;
+// A free coordinate of a solver's x (search coordinates, then ln σ for Classify) that ended on a bound of its box.
+struct BoundHit {
+  int index = 0;
+  bool atLower = false;
+};
+
+std::vector<BoundHit> coordinatesOnBounds(const fd::BoundedProblem& problem, const std::vector<double>& x) {
+  std::vector<BoundHit> hits;
   for (int i = 0; i < problem.size; ++i) {
     if (!problem.isFree[static_cast<size_t>(i)]) continue;
     const double tolerance = 1e-6 * (problem.upper[i] - problem.lower[i]);
     const bool atLower = x[i] - problem.lower[i] <= tolerance;
     const bool atUpper = problem.upper[i] - x[i] <= tolerance;
-    if (!atLower && !atUpper) continue;
-    if (i == 1) {
-      names.push_back(atLower ? "VH (at max(VH's lower bound, VL + " + number(map.gap * fd::kVelocityScale) + " m/s))"
-                              : "VH (upper bound)");
-    } else if (i == fd::kCoefficientCount) {
-      names.push_back(std::string("sigma (") + (atLower ? "lower" : "upper") + " bound)");
-    } else {
-      names.push_back(std::string(ChristiansenCoefficients::kNames[static_cast<size_t>(i)]) + " (" +
-                      (atLower ? "lower" : "upper") + " bound)");
-    }
+    if (atLower || atUpper) hits.push_back({i, atLower});
   }
-  return names;
+  return hits;
+}
+
+std::string coordinateName(int index) {
+  return index == fd::kCoefficientCount ? "sigma" : ChristiansenCoefficients::kNames[static_cast<size_t>(index)];
+}
+
+// A bound value in the units the notes use: km/s for the velocities, the plain number for the rest.
+std::string boundValue(int index, double scaled) {
+  return index < 2 ? number(scaled) + " km/s" : number(scaled);
+}
+
+// V_H's t on 0 makes V_H = max(V_H's lower bound, V_L + gap): tied to V_L where the second is the larger (the
+// same rule as CoordinateMap::toScaled, so that the map's Jacobian agrees with the words).
+bool transitionWidthActive(const BoundHit& hit, const fd::CoordinateMap& map, const std::vector<double>& x) {
+  return hit.index == 1 && hit.atLower && !(x[0] + map.gap < map.lower[1]);
+}
+
+// "VH (on its upper bound, 12 km/s)", in words, from the search coordinate's bound.
+std::string describeBound(const BoundHit& hit, const fd::CoordinateMap& map, const std::vector<double>& x) {
+  const int i = hit.index;
+  std::string where;
+  if (i == 1) {
+    if (!hit.atLower) {
+      where = "on its upper bound, " + boundValue(1, map.upper[1]);
+    } else if (transitionWidthActive(hit, map, x)) {
+      where = "on VL + " + number(map.gap * fd::kVelocityScale) +
+              " m/s, the minimum transition width: it moves with VL";
+    } else {
+      where = "on its lower bound, " + boundValue(1, map.lower[1]);
+    }
+  } else if (i == 0 && !hit.atLower && map.upper[1] - map.gap < map.upper[0]) {
+    where = "on VH's upper bound less the minimum transition width, " + boundValue(0, map.upper[1] - map.gap);
+  } else if (i == fd::kCoefficientCount) {
+    where = std::string("on its ") + (hit.atLower ? "lower" : "upper") + " bound, " +
+            number(hit.atLower ? kMinScatter : kMaxScatter);
+  } else {
+    where = std::string("on its ") + (hit.atLower ? "lower" : "upper") + " bound, " +
+            boundValue(i, hit.atLower ? map.lower[i] : map.upper[i]);
+  }
+  return coordinateName(i) + " (" + where + ")";
 }
 
 std::string joined(const std::vector<std::string>& parts) {
@@ -478,17 +512,21 @@ std::string joined(const std::vector<std::string>& parts) {
   return text;
 }
 
-// One least-squares stage: fits the free coefficients from q, the others held. Returns the new q and appends to
-// `onBounds` the coefficients that ended on a bound.
-std::vector<double> leastSquaresStage(const std::vector<fd::FitPoint>& points, const fd::CoordinateMap& map,
-                                      const std::vector<double>& q, const Mask& isFree, const fd::Hinge& hinge,
-                                      int globalEvaluations, double& sumOfSquares,
-                                      std::vector<std::string>& onBounds) {
+// One least-squares stage: the free coefficients fitted from q, the others held.
+struct StageFit {
+  std::vector<double> q;           // search coordinates at the optimum
+  double sumOfSquares = 0;         // objective there (mm²)
+  std::vector<BoundHit> onBounds;  // free coordinates that ended on a bound
+};
+StageFit leastSquaresStage(const std::vector<fd::FitPoint>& points, const fd::CoordinateMap& map,
+                           const std::vector<double>& q, const Mask& isFree, const fd::Hinge& hinge,
+                           int globalEvaluations) {
   const fd::BoundedProblem problem = leastSquaresProblem(points, map, isFree, hinge);
-  std::vector<double> result = fd::minimise(problem, q, globalEvaluations);
-  sumOfSquares = problem.objective(result.data());
-  for (auto& name : coordinatesOnBounds(problem, map, result)) onBounds.push_back(std::move(name));
-  return result;
+  StageFit fit;
+  fit.q = fd::minimise(problem, q, globalEvaluations);
+  fit.sumOfSquares = problem.objective(fit.q.data());
+  fit.onBounds = coordinatesOnBounds(problem, fit.q);
+  return fit;
 }
 
 struct MethodResult {
@@ -497,26 +535,70 @@ struct MethodResult {
   bool covarianceAvailable = false;
   std::string covarianceNote;
   double scatter = 0;
+  // For the note: coordinates held at their fitted values (zero variance) and V_H tied to V_L, each described with
+  // its block and why; and the coordinates on bounds, for when no covariance comes out.
+  std::vector<std::string> held, tied, onBounds;
 };
 
+// Sorts a block's free coordinates into those the covariance keeps free and those it holds (on a bound) or ties
+// (V_H on V_L + gap: t is held, and V_H then moves with V_L), with their descriptions recorded in `result`. The
+// held ones are set onto their bounds in `x` (the solver leaves them within its tolerance of it): the covariance is
+// conditional on the bound, and the map's Jacobian must see it exactly (with t a hair below 1, V_H would still
+// move with V_L).
+std::vector<bool> holdBounds(const std::vector<bool>& isFree, const std::vector<BoundHit>& hits,
+                             const std::vector<double>& lower, const std::vector<double>& upper,
+                             const fd::CoordinateMap& map, std::vector<double>& x, const std::string& block,
+                             MethodResult& result) {
+  std::vector<bool> free = isFree;
+  const std::string prefix = block.empty() ? "" : block + ", ";
+  for (const BoundHit& hit : hits) {
+    free[static_cast<size_t>(hit.index)] = false;
+    const auto i = static_cast<size_t>(hit.index);
+    x[i] = hit.atLower ? lower[i] : upper[i];
+    std::string text = describeBound(hit, map, x);
+    result.onBounds.push_back(text);
+    text.insert(text.find('(') + 1, prefix);
+    (transitionWidthActive(hit, map, x) ? result.tied : result.held).push_back(text);
+  }
+  return free;
+}
+
+void recordUnidentifiable(const std::vector<int>& indices, const std::string& block, MethodResult& result) {
+  const std::string prefix = block.empty() ? "" : block + ", ";
+  for (int i : indices) {
+    result.held.push_back(coordinateName(i) + " (" + prefix +
+                          "not determined by the data at the optimum: its column of the Jacobian is zero or a "
+                          "combination of the others')");
+  }
+}
+
 // Least-squares covariance of one stage (or the joint fit) into `result`; false with a note when unavailable.
-bool addLeastSquaresCovariance(const std::vector<fd::FitPoint>& points, const Scaled& u, const Mask& isFree,
+// The coefficients on bounds and those the data do not determine are held (see fd::leastSquaresCovariance).
+bool addLeastSquaresCovariance(const std::vector<fd::FitPoint>& points, const fd::CoordinateMap& map,
+                               const std::vector<double>& q, const Mask& isFree, const std::vector<BoundHit>& hits,
                                const fd::Hinge& hinge, double sumOfSquares, const std::string& label,
-                               MethodResult& result) {
+                               const std::string& block, MethodResult& result) {
+  // The residual variance counts every coefficient the stage fitted, the held ones too: they were fitted (onto a
+  // bound, or to a value the data leave open), so they cost degrees of freedom as much as the others.
   const int freeCount = static_cast<int>(std::count(isFree.begin(), isFree.end(), true));
   const int dof = static_cast<int>(points.size()) - freeCount;
   if (dof <= 0) {
     result.covarianceNote += label + ": as many points as coefficients, so no residual variance to scale by. ";
     return false;
   }
-  std::array<double, 64> block{};
-  if (!fd::leastSquaresCovariance(points, u, isFree, hinge, sumOfSquares / dof, block)) {
-    result.covarianceNote += label +
-                             ": the Jacobian is rank deficient at the optimum (some coefficient does not change "
-                             "any residual there, e.g. no point between V1 and V2 pins V_L and V_H). ";
+  const auto lower = map.searchLower(), upper = map.searchUpper();
+  std::vector<double> at = q;
+  const std::vector<bool> free = holdBounds(std::vector<bool>(isFree.begin(), isFree.end()), hits,
+                                            {lower.begin(), lower.end()}, {upper.begin(), upper.end()}, map, at,
+                                            block, result);
+  const fd::ConditionalCovariance covariance =
+      fd::leastSquaresCovariance(points, map, at, free, hinge, sumOfSquares / dof);
+  recordUnidentifiable(covariance.unidentifiable, block, result);
+  if (!covariance.available) {
+    result.covarianceNote += label + ": " + covariance.failure + ". ";
     return false;
   }
-  for (int k = 0; k < 64; ++k) result.covariance[k] += block[k];
+  for (int k = 0; k < 64; ++k) result.covariance[k] += covariance.covarianceSI[k];
   const std::string hingeNote =
       "With the wrong-side hinge, the Jacobian and the residual variance include the active hinge terms: the "
       "curvature of the penalised objective, not of a likelihood. ";
@@ -526,10 +608,24 @@ bool addLeastSquaresCovariance(const std::vector<fd::FitPoint>& points, const Sc
   return true;
 }
 
-void noteBounds(const std::vector<std::string>& onBounds, MethodResult& result) {
-  if (onBounds.empty()) return;
-  result.covarianceNote += "On a bound at the optimum: " + joined(onBounds) +
-                           "; the covariance treats the optimum as interior and does not know the bound. ";
+// The last words of the note: what the covariance holds and ties, or, without one, what sits on a bound.
+void noteHeld(MethodResult& result) {
+  if (!result.covarianceAvailable) {
+    if (!result.onBounds.empty()) {
+      result.covarianceNote += "On a bound at the optimum: " + joined(result.onBounds) + ". ";
+    }
+    return;
+  }
+  if (!result.held.empty()) {
+    result.covarianceNote += "Held at their fitted values, with zero variance: " + joined(result.held) +
+                             ". The covariance of the other coefficients, and every band from it, is conditional "
+                             "on these values. ";
+  }
+  if (!result.tied.empty()) {
+    result.covarianceNote += "Tied: " + joined(result.tied) +
+                             "; the covariance is conditional on V_H - V_L staying at that width, so VH's variance "
+                             "is VL's. ";
+  }
 }
 
 MethodResult fitTwoStage(const std::vector<ImpactPoint>& raw, const std::vector<fd::FitPoint>& points,
@@ -561,19 +657,19 @@ MethodResult fitTwoStage(const std::vector<ImpactPoint>& raw, const std::vector<
   }
   const Scaled start = startValues(normal, options, map);
   const auto q0 = map.toSearch(start);
-  std::vector<std::string> onBounds;
-  double ssr1 = 0, ssr2 = 0;
   const Mask stage1{true, true, true, true, false, false, false, false};
   const Mask stage2{false, false, false, false, true, true, true, true};
   const fd::Hinge w = hingeOf(options);
-  const auto q1 = leastSquaresStage(normal, map, {q0.begin(), q0.end()}, stage1, w, options.globalEvaluations, ssr1,
-                                    onBounds);
-  const auto q2 = leastSquaresStage(oblique, map, q1, stage2, w, options.globalEvaluations, ssr2, onBounds);
+  const StageFit fit1 = leastSquaresStage(normal, map, {q0.begin(), q0.end()}, stage1, w, options.globalEvaluations);
+  const StageFit fit2 = leastSquaresStage(oblique, map, fit1.q, stage2, w, options.globalEvaluations);
 
+  // Both covariances at the final q, whose stage-1 coordinates are stage 1's (stage 2 held them).
   MethodResult result;
-  result.coefficients = toScaled(map, q2.data());
-  const bool ok1 = addLeastSquaresCovariance(normal, result.coefficients, stage1, w, ssr1, "Stage 1", result);
-  const bool ok2 = addLeastSquaresCovariance(oblique, result.coefficients, stage2, w, ssr2, "Stage 2", result);
+  result.coefficients = toScaled(map, fit2.q.data());
+  const bool ok1 = addLeastSquaresCovariance(normal, map, fit2.q, stage1, fit1.onBounds, w, fit1.sumOfSquares,
+                                             "Stage 1", "stage 1", result);
+  const bool ok2 = addLeastSquaresCovariance(oblique, map, fit2.q, stage2, fit2.onBounds, w, fit2.sumOfSquares,
+                                             "Stage 2", "stage 2", result);
   result.covarianceAvailable = ok1 && ok2;
   if (!result.covarianceAvailable) {
     result.covariance = {};
@@ -583,7 +679,7 @@ MethodResult fitTwoStage(const std::vector<ImpactPoint>& raw, const std::vector<
         "by its own residual variance; the covariances between the blocks are set to zero because stage 2 takes "
         "stage 1's values as exact, so the bands understate the uncertainty at oblique angles. ";
   }
-  noteBounds(onBounds, result);
+  noteHeld(result);
   return result;
 }
 
@@ -596,18 +692,29 @@ MethodResult fitJointLeastSquares(const std::vector<ImpactPoint>& raw, const std
                      "at least 8 points");
   }
   const auto q0 = map.toSearch(startValues(points, options, map));
-  std::vector<std::string> onBounds;
-  double ssr = 0;
   const Mask all{true, true, true, true, true, true, true, true};
-  const auto q = leastSquaresStage(points, map, {q0.begin(), q0.end()}, all, hingeOf(options),
-                                   options.globalEvaluations, ssr, onBounds);
+  const StageFit fit =
+      leastSquaresStage(points, map, {q0.begin(), q0.end()}, all, hingeOf(options), options.globalEvaluations);
   MethodResult result;
-  result.coefficients = toScaled(map, q.data());
-  result.covarianceAvailable =
-      addLeastSquaresCovariance(points, result.coefficients, all, hingeOf(options), ssr, "Joint fit", result);
+  result.coefficients = toScaled(map, fit.q.data());
+  result.covarianceAvailable = addLeastSquaresCovariance(points, map, fit.q, all, fit.onBounds, hingeOf(options),
+                                                         fit.sumOfSquares, "Joint fit", "", result);
   if (!result.covarianceAvailable) result.covariance = {};
-  noteBounds(onBounds, result);
+  noteHeld(result);
   return result;
+}
+
+FitQuality quality(const std::vector<fd::FitPoint>& points, const ChristiansenCoefficients& c) {
+  FitQuality q;
+  double sum = 0;
+  for (const fd::FitPoint& p : points) {
+    const double dc = criticalDiameter(c, p.velocity, p.angle, p.density);
+    sum += (p.diameter - dc) * (p.diameter - dc);
+    if ((p.perforated && p.diameter < dc) || (!p.perforated && p.diameter > dc)) ++q.misclassified;
+  }
+  q.pointCount = static_cast<int>(points.size());
+  q.meanSquareError = points.empty() ? 0.0 : sum / static_cast<double>(points.size());
+  return q;
 }
 
 MethodResult fitClassify(const std::vector<ImpactPoint>& raw, const std::vector<fd::FitPoint>& points,
@@ -628,11 +735,9 @@ MethodResult fitClassify(const std::vector<ImpactPoint>& raw, const std::vector<
   // Start: the plain joint least-squares fit (wrongSideWeight does not apply: the likelihood weighs the outcomes
   // itself), with σ the spread of ln(d/d_c) about it.
   const auto q0 = map.toSearch(startValues(points, options, map));
-  std::vector<std::string> ignored;
-  double ssr = 0;
   const Mask all{true, true, true, true, true, true, true, true};
   std::vector<double> x =
-      leastSquaresStage(points, map, {q0.begin(), q0.end()}, all, fd::Hinge{}, options.globalEvaluations, ssr, ignored);
+      leastSquaresStage(points, map, {q0.begin(), q0.end()}, all, fd::Hinge{}, options.globalEvaluations).q;
   const Scaled uLeastSquares = toScaled(map, x.data());
   double spread = 0;
   for (const fd::FitPoint& p : points) {
@@ -648,59 +753,50 @@ MethodResult fitClassify(const std::vector<ImpactPoint>& raw, const std::vector<
   MethodResult result;
   result.coefficients = toScaled(map, x.data());
   result.scatter = std::exp(x[fd::kCoefficientCount]);
-  const auto onBounds = coordinatesOnBounds(problem, map, x);
+  const auto onBounds = coordinatesOnBounds(problem, x);
 
-  if (x[fd::kCoefficientCount] - problem.lower[fd::kCoefficientCount] <= 1e-6) {
-    result.covarianceNote = "sigma reached its lower bound " + number(kMinScatter) +
-                            ": the curve separates the outcomes without overlap, so the likelihood has no interior "
-                            "maximum and no covariance. ";
+  // A curve that puts every point on its own side gains from every decrease of σ: the likelihood has no maximum at
+  // any σ > 0, only a supremum at σ -> 0, and the solver stops where the floor or the round-off of Φ to 1 halts it.
+  // The curvature there measures that stopping point, not the data (it may be 1e-180 or 1e+180), so no covariance.
+  if (quality(points, toCoefficients(result.coefficients)).misclassified == 0) {
+    result.covarianceNote = "No covariance: the curve separates the outcomes without overlap, so the likelihood has "
+                            "no maximum at any sigma > 0 (it grows as sigma -> 0) and its curvature at the point "
+                            "where the search stopped says nothing about the data. ";
     return result;
   }
+
   // Covariance: the inverse of the observed information, the Hessian of the negative log-likelihood at the
   // optimum, in (coefficients, ln σ); the coefficients' block of the inverse is their covariance with σ
   // profiled over. ceres::Covariance would return (JᵀJ)⁻¹ of the residuals sqrt(-ln L_k) instead: that is only
   // the Gauss-Newton part of half this Hessian (the Σ r_k ∇²r_k terms do not vanish, since the residuals do not
   // vanish at the optimum), and Ceres' scaling assumes unit-variance residuals, which these are not.
-  fd::ClassifyVector at{};
-  for (int i = 0; i < fd::kCoefficientCount; ++i) at[i] = result.coefficients[i];
-  at[fd::kCoefficientCount] = x[fd::kCoefficientCount];
-  const auto hessian = fd::probitHessian(points, at);
-  const Eigen::Matrix<double, 9, 9> h = Eigen::Map<const Eigen::Matrix<double, 9, 9, Eigen::RowMajor>>(hessian.data());
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 9, 9>> eigen(h);
-  const double smallest = eigen.eigenvalues()(0);
-  const double largest = eigen.eigenvalues()(8);
-  if (eigen.info() != Eigen::Success || !h.allFinite() || !(smallest > 1e-12 * largest)) {
-    result.covarianceNote = "the Hessian of the negative log-likelihood is not positive definite at the optimum "
-                            "(eigenvalues from " +
-                            number(smallest) + " to " + number(largest) +
-                            "): the data do not determine every coefficient (e.g. no point near the V1-V2 blend "
-                            "pins V_L and V_H). ";
+  // Coordinates on bounds, σ among them, are held, and so are those the likelihood does not curve in.
+  std::vector<double> at = x;
+  const std::vector<bool> free =
+      holdBounds(problem.isFree, onBounds, problem.lower, problem.upper, map, at, "", result);
+  const fd::ConditionalCovariance covariance = fd::probitCovariance(points, map, at, free);
+  recordUnidentifiable(covariance.unidentifiable, "", result);
+  if (!covariance.available) {
+    result.covarianceNote = "No covariance from the observed information (Hessian of the negative log-likelihood): " +
+                            covariance.failure + ". ";
+    noteHeld(result);
     return result;
   }
-  const Eigen::Matrix<double, 9, 9> inverse =
-      eigen.eigenvectors() * eigen.eigenvalues().cwiseInverse().asDiagonal() * eigen.eigenvectors().transpose();
-  for (int i = 0; i < fd::kCoefficientCount; ++i) {
-    for (int j = 0; j < fd::kCoefficientCount; ++j) {
-      result.covariance[i * 8 + j] = inverse(i, j) * fd::scaleOf(i) * fd::scaleOf(j);
-    }
-  }
+  result.covariance = covariance.covarianceSI;
   result.covarianceAvailable = true;
-  result.covarianceNote = "Inverse observed information (Hessian of the negative log-likelihood), sigma profiled. ";
-  noteBounds(onBounds, result);
-  return result;
-}
-
-FitQuality quality(const std::vector<fd::FitPoint>& points, const ChristiansenCoefficients& c) {
-  FitQuality q;
-  double sum = 0;
-  for (const fd::FitPoint& p : points) {
-    const double dc = criticalDiameter(c, p.velocity, p.angle, p.density);
-    sum += (p.diameter - dc) * (p.diameter - dc);
-    if ((p.perforated && p.diameter < dc) || (!p.perforated && p.diameter > dc)) ++q.misclassified;
+  const bool sigmaFree = free[fd::kCoefficientCount] &&
+                         std::find(covariance.unidentifiable.begin(), covariance.unidentifiable.end(),
+                                   fd::kCoefficientCount) == covariance.unidentifiable.end();
+  result.covarianceNote = sigmaFree ? "Inverse observed information (Hessian of the negative log-likelihood), sigma "
+                                      "profiled. "
+                                    : "Inverse observed information (Hessian of the negative log-likelihood) with "
+                                      "sigma held. ";
+  if (!free[fd::kCoefficientCount]) {
+    result.covarianceNote += "The likelihood would move sigma past its bound; the curvature grows as sigma shrinks, "
+                             "so at the lower bound the covariance understates the uncertainty. ";
   }
-  q.pointCount = static_cast<int>(points.size());
-  q.meanSquareError = points.empty() ? 0.0 : sum / static_cast<double>(points.size());
-  return q;
+  noteHeld(result);
+  return result;
 }
 
 double crossValidate(const std::vector<ImpactPoint>& points, const std::vector<fd::FitPoint>& resolved,

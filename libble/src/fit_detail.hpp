@@ -234,17 +234,67 @@ struct BoundedProblem {
 // the best point found.
 std::vector<double> minimise(const BoundedProblem& problem, std::vector<double> start, int globalEvaluations);
 
-// ceres::Covariance of the scaled coefficients for least squares on d (DiameterResidual with the given hinge,
-// residuals in mm), on the free ones only, multiplied by `residualVariance` (mm²) and converted to SI. False when
-// Ceres finds the Jacobian rank deficient.
-bool leastSquaresCovariance(const std::vector<FitPoint>& points, const std::array<double, kCoefficientCount>& scaled,
-                            const std::array<bool, kCoefficientCount>& isFree, const Hinge& hinge,
-                            double residualVariance, std::array<double, 64>& covarianceSI);
+// ---- Covariances conditional on held coordinates --------------------------------------------------------------
+//
+// An optimum may leave some coordinates without a covariance of their own: a coefficient on a bound of its box
+// (the curvature there says nothing about the bound, which the caller holds), or one the data do not determine
+// (its Jacobian column is zero, or a combination of the other columns: e.g. V_H and C_H at θ = 0 with no point
+// above V_H, where both only set the slope of the blend). The functions below take the search coordinates q the
+// caller leaves free, hold the ones that do not add to the numerical rank too, and return the covariance of the
+// rest with the held ones treated as known: their rows and columns are zero, and the free ones' block is that of
+// the problem with the held ones fixed.
+// Working coordinates w. Where V_H's t is free, w = u, the scaled coefficients themselves, so that holding a
+// coefficient the data do not determine means exactly that: zero variance for it. Where t is held (on a bound, or
+// by the stage), w = q: then V_H is a function of V_L, and the map says which: with t on 0 and V_L + gap above
+// V_H's lower bound, V_H moves with V_L (the transition width is active); with t on 1, V_H sits on its upper bound.
+// The covariance in w is carried to the coefficients by the Jacobian M = ∂u/∂w (Σ_u = M Σ_w Mᵀ).
+//
+// Rank. The columns (of J for least squares, of the Hessian's square root for the likelihood) are equilibrated to
+// unit length first, so that only directions count, not units. A column-pivoted factorisation then orders them,
+// the most independent first; the numerical rank is the number of directions whose relative size exceeds the
+// tolerance, and the columns after it in the pivot order are held. The kept block is checked again and, should it
+// still be ill-conditioned, shortened by its last pivot. All of it is plain dense linear algebra: deterministic.
+
+// Relative size, on equilibrated columns, of the smallest singular value of J kept: 1e-7 is Ceres' own test
+// (reciprocal condition number of JᵀJ below 1e-14) and leaves the covariance, formed from the SVD of J rather
+// than from JᵀJ, accurate to about 1e-9.
+constexpr double kJacobianRankTolerance = 1e-7;
+// Relative size, on an equilibrated Hessian, of the smallest eigenvalue kept. The Hessian is a central difference
+// of exact gradients, good to about 1e-10 relative, so directions with a curvature below 1e-8 of the largest are
+// within its noise.
+constexpr double kHessianRankTolerance = 1e-8;
+
+struct ConditionalCovariance {
+  bool available = false;
+  std::array<double, 64> covarianceSI{};  // of the 8 coefficients, SI, row-major
+  // Coordinates that were free on entry but were held because the data do not determine them (see above).
+  std::vector<int> unidentifiable;
+  std::string failure;  // why not available, when not
+};
+
+// ∂u/∂q of CoordinateMap::toScaled at q (8x8, row-major: row = scaled coefficient, column = search coordinate).
+std::array<double, kCoefficientCount * kCoefficientCount> searchToScaledJacobian(const CoordinateMap& map,
+                                                                                  const double* q);
+
+// Least squares on d (DiameterResidual with the given hinge, residuals in mm) at the search coordinates q:
+// residualVariance (mm²) · (JᵀJ)⁻¹ over the coordinates `isFree` leaves free less the unidentifiable ones, J the
+// Jacobian of the residuals with respect to them (in the working coordinates), carried to the coefficients and to
+// SI. Index 1 of isFree and of `unidentifiable` stands for V_H's t, i.e. for V_H.
+ConditionalCovariance leastSquaresCovariance(const std::vector<FitPoint>& points, const CoordinateMap& map,
+                                             const std::vector<double>& q, const std::vector<bool>& isFree,
+                                             const Hinge& hinge, double residualVariance);
 
 // Hessian of the probit negative log-likelihood in (scaled coefficients, ln σ), with every point's regime
 // frozen at x; see fit_solvers.cpp for why.
 using ClassifyVector = std::array<double, kClassifyCount>;
 std::array<double, kClassifyCount * kClassifyCount> probitHessian(const std::vector<FitPoint>& points,
                                                                   const ClassifyVector& x);
+
+// The inverse of the observed information (probitHessian, carried to the working coordinates and ln σ) over
+// the coordinates of x that `isFree` (size 9) leaves free less the unidentifiable ones (zero or negative
+// curvature included): the coefficients' block of it, in SI. With ln σ free, σ is profiled over; held, the
+// covariance is conditional on σ as well.
+ConditionalCovariance probitCovariance(const std::vector<FitPoint>& points, const CoordinateMap& map,
+                                       const std::vector<double>& x, const std::vector<bool>& isFree);
 
 }  // namespace blt::ble::fit_detail

@@ -206,71 +206,203 @@ std::vector<double> minimise(const BoundedProblem& problem, std::vector<double> 
 
 // ---- Covariances ---------------------------------------------------------------------------------------------
 
-bool leastSquaresCovariance(const std::vector<FitPoint>& points, const std::array<double, kCoefficientCount>& scaled,
-                            const std::array<bool, kCoefficientCount>& isFree, const Hinge& hinge,
-                            double residualVariance, std::array<double, 64>& covarianceSI) {
-  // A fresh problem in scaled coefficients (no V_L < V_H map), so the covariance comes out in the coefficients
-  // themselves; the held ones are constant through a SubsetManifold and get zero rows and columns.
-  std::array<double, kCoefficientCount> u = scaled;
-  ceres::Problem problem;
-  for (const FitPoint& point : points) {
-    problem.AddResidualBlock(
-        new ceres::AutoDiffCostFunction<DiameterResidual, DiameterResidual::kResiduals, kCoefficientCount>(
-            new DiameterResidual{point, nullptr, hinge}),
-        nullptr, u.data());
-  }
-  std::vector<int> held;
-  for (int i = 0; i < kCoefficientCount; ++i) {
-    if (!isFree[i]) held.push_back(i);
-  }
-  if (!held.empty()) problem.SetManifold(u.data(), new ceres::SubsetManifold(kCoefficientCount, held));
+namespace {
 
-  // Ceres reports a rank-deficient Jacobian through glog on stderr; look first, with the same test it applies
-  // (reciprocal condition number of JᵀJ, i.e. (σ_min/σ_max)² of J, below 1e-14), and stay quiet.
-  {
-    using Jet = ceres::Jet<double, kCoefficientCount>;
-    std::array<Jet, kCoefficientCount> x;
-    for (int i = 0; i < kCoefficientCount; ++i) x[i] = Jet(u[i], i);
-    std::vector<int> freeIndices;
-    for (int i = 0; i < kCoefficientCount; ++i) {
-      if (isFree[i]) freeIndices.push_back(i);
-    }
-    constexpr int m = DiameterResidual::kResiduals;
-    Eigen::MatrixXd jacobian(m * points.size(), freeIndices.size());
-    for (size_t k = 0; k < points.size(); ++k) {
-      Jet r[m];
-      DiameterResidual{points[k], nullptr, hinge}(x.data(), r);
-      for (int row = 0; row < m; ++row) {
-        for (size_t j = 0; j < freeIndices.size(); ++j) {
-          jacobian(static_cast<long>(m * k) + row, static_cast<long>(j)) = r[row].v[freeIndices[j]];
-        }
-      }
-    }
-    if (!jacobian.allFinite()) return false;
-    const Eigen::JacobiSVD<Eigen::MatrixXd> svd(jacobian);
-    const auto& singular = svd.singularValues();
-    if (singular.size() == 0 || singular(0) <= 0) return false;
-    const double ratio = singular(singular.size() - 1) / singular(0);
-    if (ratio * ratio < 1e-13) return false;
+using RowMajor8 = Eigen::Matrix<double, kCoefficientCount, kCoefficientCount, Eigen::RowMajor>;
+
+// Columns whose length is below this fraction of the longest one are zero: the coordinate does not move any
+// residual (e.g. X_H with no point in the shatter regime, where the derivative is exactly 0). The scaled
+// coordinates are all of order 0.1-100, so no real effect comes near it.
+constexpr double kZeroColumn = 1e-12;
+
+// Which columns of `a` (equilibrated: unit length) to keep, in pivot order: the first `rank` of a column-pivoted
+// QR, rank from the singular values, then shortened until the kept block passes the test. Empty when none.
+std::vector<int> independentColumns(const Eigen::MatrixXd& a) {
+  if (a.cols() == 0) return {};
+  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(a);
+  const auto& singular = svd.singularValues();
+  long rank = 0;
+  while (rank < singular.size() && singular(rank) > kJacobianRankTolerance * singular(0)) ++rank;
+  const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(a);
+  const auto& order = qr.colsPermutation().indices();
+  for (; rank > 0; --rank) {
+    std::vector<int> kept(order.data(), order.data() + rank);
+    Eigen::MatrixXd block(a.rows(), rank);
+    for (long j = 0; j < rank; ++j) block.col(j) = a.col(kept[static_cast<size_t>(j)]);
+    const Eigen::JacobiSVD<Eigen::MatrixXd> check(block);
+    const auto& s = check.singularValues();
+    if (s(rank - 1) > kJacobianRankTolerance * s(0)) return kept;
   }
-  ceres::Covariance::Options options;
-  // Dense SVD: the problem is tiny, and it reports a rank-deficient Jacobian (e.g. no point between V1 and V2, so
-  // nothing pins V_L and V_H) instead of returning garbage.
-  options.algorithm_type = ceres::DENSE_SVD;
-  options.num_threads = 1;
-  ceres::Covariance covariance(options);
-  const std::vector<std::pair<const double*, const double*>> blocks{{u.data(), u.data()}};
-  if (!covariance.Compute(blocks, &problem)) return false;
-  std::array<double, 64> c{};
-  if (!covariance.GetCovarianceBlock(u.data(), u.data(), c.data())) return false;
-  // Ceres returns (JᵀJ)⁻¹, i.e. unit residual variance: scale by s², and from km/s and mm-residuals to SI. The
-  // residuals are in mm but (d - d_c) enters only through them, so the coefficient units are untouched by that.
+  return {};
+}
+
+// The same for a symmetric matrix `h` with unit diagonal (an equilibrated Hessian): pivoted Cholesky, each step
+// taking the coordinate with the largest remaining curvature (Schur complement diagonal), stopping when that is
+// no longer above the tolerance, then shortened until the kept block's eigenvalues pass the test.
+std::vector<int> independentCurvatures(const Eigen::MatrixXd& h) {
+  const long n = h.rows();
+  Eigen::MatrixXd schur = h;
+  std::vector<int> kept;
+  std::vector<bool> taken(static_cast<size_t>(n), false);
+  for (long step = 0; step < n; ++step) {
+    long pivot = -1;
+    for (long j = 0; j < n; ++j) {
+      if (!taken[static_cast<size_t>(j)] && (pivot < 0 || schur(j, j) > schur(pivot, pivot))) pivot = j;
+    }
+    if (!(schur(pivot, pivot) > kHessianRankTolerance)) break;
+    taken[static_cast<size_t>(pivot)] = true;
+    kept.push_back(static_cast<int>(pivot));
+    const Eigen::VectorXd column = schur.col(pivot) / std::sqrt(schur(pivot, pivot));
+    schur -= column * column.transpose();
+  }
+  for (; !kept.empty(); kept.pop_back()) {
+    const long r = static_cast<long>(kept.size());
+    Eigen::MatrixXd block(r, r);
+    for (long i = 0; i < r; ++i) {
+      for (long j = 0; j < r; ++j) block(i, j) = h(kept[static_cast<size_t>(i)], kept[static_cast<size_t>(j)]);
+    }
+    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(block, Eigen::EigenvaluesOnly);
+    const auto& values = eigen.eigenvalues();
+    if (eigen.info() == Eigen::Success && values(0) > kHessianRankTolerance * values(r - 1)) break;
+  }
+  return kept;
+}
+
+}  // namespace
+
+namespace {
+// The covariance of the kept working coordinates, equilibrated: the true block is D⁻¹ inverse D⁻¹, D = scales.
+struct KeptBlock {
+  std::vector<int> coordinates;  // working coordinates, in pivot order
+  std::vector<double> scales;
+  Eigen::MatrixXd inverse;
+};
+
+// The ConditionalCovariance of a kept block: the free coordinates not kept are listed as unidentifiable, the
+// block is put into the working coordinates' covariance (zero elsewhere), carried to the scaled coefficients by
+// toScaled = ∂u/∂w (Σ_u = M Σ_w Mᵀ; for Classify ln σ comes last and is dropped) and converted to SI.
+template <typename Matrix>
+ConditionalCovariance conditionalCovariance(const std::vector<int>& freeIndices, const KeptBlock& block,
+                                            const Matrix& toScaled) {
+  ConditionalCovariance result;
+  for (int i : freeIndices) {
+    if (std::find(block.coordinates.begin(), block.coordinates.end(), i) == block.coordinates.end()) {
+      result.unidentifiable.push_back(i);
+    }
+  }
+  if (block.coordinates.empty()) {
+    result.failure = "no coefficient is left free once those on bounds and those the data do not determine are held";
+    return result;
+  }
+  Matrix working = Matrix::Zero();
+  const size_t r = block.coordinates.size();
+  for (size_t i = 0; i < r; ++i) {
+    for (size_t j = 0; j < r; ++j) {
+      working(block.coordinates[i], block.coordinates[j]) =
+          block.inverse(static_cast<long>(i), static_cast<long>(j)) / (block.scales[i] * block.scales[j]);
+    }
+  }
+  const Matrix scaled = toScaled * working * toScaled.transpose();
   for (int i = 0; i < kCoefficientCount; ++i) {
     for (int j = 0; j < kCoefficientCount; ++j) {
-      covarianceSI[i * 8 + j] = c[i * 8 + j] * residualVariance * scaleOf(i) * scaleOf(j);
+      result.covarianceSI[static_cast<size_t>(i * 8 + j)] = scaled(i, j) * scaleOf(i) * scaleOf(j);
     }
   }
-  return std::all_of(covarianceSI.begin(), covarianceSI.end(), [](double v) { return std::isfinite(v); });
+  if (!std::all_of(result.covarianceSI.begin(), result.covarianceSI.end(), [](double v) { return std::isfinite(v); })) {
+    result.covarianceSI = {};
+    result.failure = "the covariance is not finite";
+    return result;
+  }
+  result.available = true;
+  return result;
+}
+
+// ∂u/∂w, w the working coordinates: the identity where V_H's t is free (w = u), the map's Jacobian where it is
+// held.
+RowMajor8 workingJacobian(const CoordinateMap& map, const double* q, bool transitionFree) {
+  if (transitionFree) return RowMajor8::Identity();
+  const auto m = searchToScaledJacobian(map, q);
+  return Eigen::Map<const RowMajor8>(m.data());
+}
+}  // namespace
+
+std::array<double, kCoefficientCount * kCoefficientCount> searchToScaledJacobian(const CoordinateMap& map,
+                                                                                  const double* q) {
+  using Jet = ceres::Jet<double, kCoefficientCount>;
+  std::array<Jet, kCoefficientCount> qs, u;
+  for (int i = 0; i < kCoefficientCount; ++i) qs[i] = Jet(q[i], i);
+  map.toScaled(qs.data(), u.data());
+  std::array<double, kCoefficientCount * kCoefficientCount> m{};
+  for (int i = 0; i < kCoefficientCount; ++i) {
+    for (int j = 0; j < kCoefficientCount; ++j) m[i * kCoefficientCount + j] = u[i].v[j];
+  }
+  return m;
+}
+
+ConditionalCovariance leastSquaresCovariance(const std::vector<FitPoint>& points, const CoordinateMap& map,
+                                             const std::vector<double>& q, const std::vector<bool>& isFree,
+                                             const Hinge& hinge, double residualVariance) {
+  ConditionalCovariance result;
+  std::vector<int> freeIndices;
+  for (int i = 0; i < kCoefficientCount; ++i) {
+    if (isFree[static_cast<size_t>(i)]) freeIndices.push_back(i);
+  }
+  // The Jacobian of the residuals (mm) in the working coordinates (see fit_detail.hpp): exact in the scaled
+  // coefficients (Jets), then times the map's Jacobian where V_H is tied to the others.
+  const RowMajor8 toScaledCoefficients = workingJacobian(map, q.data(), isFree[1]);
+  std::array<double, kCoefficientCount> u{};
+  map.toScaled(q.data(), u.data());
+  using Jet = ceres::Jet<double, kCoefficientCount>;
+  std::array<Jet, kCoefficientCount> x;
+  for (int i = 0; i < kCoefficientCount; ++i) x[i] = Jet(u[static_cast<size_t>(i)], i);
+  constexpr int m = DiameterResidual::kResiduals;
+  const long freeCount = static_cast<long>(freeIndices.size());
+  Eigen::MatrixXd scaledJacobian(m * static_cast<long>(points.size()), kCoefficientCount);
+  for (size_t k = 0; k < points.size(); ++k) {
+    Jet r[m];
+    DiameterResidual{points[k], nullptr, hinge}(x.data(), r);
+    for (int row = 0; row < m; ++row) {
+      for (int j = 0; j < kCoefficientCount; ++j) scaledJacobian(static_cast<long>(m * k) + row, j) = r[row].v[j];
+    }
+  }
+  const Eigen::MatrixXd workingFull = scaledJacobian * toScaledCoefficients;
+  Eigen::MatrixXd jacobian(workingFull.rows(), freeCount);
+  for (long j = 0; j < freeCount; ++j) jacobian.col(j) = workingFull.col(freeIndices[static_cast<size_t>(j)]);
+  if (!jacobian.allFinite()) {
+    result.failure = "the Jacobian is not finite at the optimum";
+    return result;
+  }
+
+  // Zero columns are held at once; the others are equilibrated and ranked.
+  const Eigen::VectorXd norms = jacobian.colwise().norm();
+  const double longest = freeCount > 0 ? norms.maxCoeff() : 0.0;
+  std::vector<int> candidates;  // positions in freeIndices
+  for (int j = 0; j < static_cast<int>(freeCount); ++j) {
+    if (norms(j) > kZeroColumn * longest && norms(j) > 0) candidates.push_back(j);
+  }
+  Eigen::MatrixXd equilibrated(jacobian.rows(), static_cast<long>(candidates.size()));
+  for (size_t c = 0; c < candidates.size(); ++c) {
+    equilibrated.col(static_cast<long>(c)) = jacobian.col(candidates[c]) / norms(candidates[c]);
+  }
+  const std::vector<int> kept = independentColumns(equilibrated);  // positions in candidates
+
+  // (JᵀJ)⁻¹ of the kept columns from the SVD of their equilibrated block, J = U S Vᵀ D: D⁻¹ V S⁻² Vᵀ D⁻¹.
+  KeptBlock block;
+  Eigen::MatrixXd columns(jacobian.rows(), static_cast<long>(kept.size()));
+  for (size_t k = 0; k < kept.size(); ++k) {
+    const int position = candidates[static_cast<size_t>(kept[k])];
+    columns.col(static_cast<long>(k)) = equilibrated.col(kept[k]);
+    block.coordinates.push_back(freeIndices[static_cast<size_t>(position)]);
+    block.scales.push_back(norms(position));
+  }
+  if (!kept.empty()) {
+    const Eigen::JacobiSVD<Eigen::MatrixXd> svd(columns, Eigen::ComputeThinV);
+    const Eigen::MatrixXd scaledV = svd.matrixV() * svd.singularValues().cwiseInverse().asDiagonal();
+    block.inverse = residualVariance * scaledV * scaledV.transpose();
+  }
+  // To the coefficients, then from km/s to SI. The residuals are in mm, but (d - d_c) enters only through them and
+  // residualVariance is in mm² too, so the coefficient units are untouched by that.
+  return conditionalCovariance(freeIndices, block, toScaledCoefficients);
 }
 
 namespace {
@@ -318,6 +450,71 @@ std::array<double, kClassifyCount * kClassifyCount> probitHessian(const std::vec
     for (int j = i + 1; j < n; ++j) h[i * n + j] = h[j * n + i] = 0.5 * (h[i * n + j] + h[j * n + i]);
   }
   return h;
+}
+
+ConditionalCovariance probitCovariance(const std::vector<FitPoint>& points, const CoordinateMap& map,
+                                       const std::vector<double>& x, const std::vector<bool>& isFree) {
+  constexpr int n = kClassifyCount;
+  using RowMajor9 = Eigen::Matrix<double, n, n, Eigen::RowMajor>;
+  ConditionalCovariance result;
+  ClassifyVector at{};
+  map.toScaled(x.data(), at.data());
+  at[kCoefficientCount] = x[kCoefficientCount];
+  const auto hArray = probitHessian(points, at);
+  const RowMajor9 hessianU = Eigen::Map<const RowMajor9>(hArray.data());
+  // To the working coordinates (see fit_detail.hpp), ln σ passed through. Where V_H is tied, the map's second
+  // derivatives would add gradient terms, but those vanish at an optimum in every free coordinate (and the held
+  // ones are dropped).
+  RowMajor9 jacobianMap = RowMajor9::Zero();
+  jacobianMap.topLeftCorner<kCoefficientCount, kCoefficientCount>() = workingJacobian(map, x.data(), isFree[1]);
+  jacobianMap(kCoefficientCount, kCoefficientCount) = 1.0;
+  const RowMajor9 hessianX = jacobianMap.transpose() * hessianU * jacobianMap;
+  if (!hessianX.allFinite()) {
+    result.failure = "the Hessian of the negative log-likelihood is not finite at the optimum";
+    return result;
+  }
+
+  std::vector<int> freeIndices;
+  for (int i = 0; i < n; ++i) {
+    if (isFree[static_cast<size_t>(i)]) freeIndices.push_back(i);
+  }
+  double largest = 0;
+  for (int i : freeIndices) largest = std::max(largest, hessianX(i, i));
+  // No curvature (or a negative one) on the diagonal: held at once; see kZeroColumn (here squared, a curvature).
+  std::vector<int> candidates;  // coordinates
+  for (int i : freeIndices) {
+    if (hessianX(i, i) > kZeroColumn * kZeroColumn * largest && hessianX(i, i) > 0) candidates.push_back(i);
+  }
+  const long c = static_cast<long>(candidates.size());
+  Eigen::VectorXd scale(c);
+  for (long i = 0; i < c; ++i) {
+    const int k = candidates[static_cast<size_t>(i)];
+    scale(i) = std::sqrt(hessianX(k, k));
+  }
+  Eigen::MatrixXd equilibrated(c, c);
+  for (long i = 0; i < c; ++i) {
+    for (long j = 0; j < c; ++j) {
+      equilibrated(i, j) =
+          hessianX(candidates[static_cast<size_t>(i)], candidates[static_cast<size_t>(j)]) / (scale(i) * scale(j));
+    }
+  }
+  const std::vector<int> kept = independentCurvatures(equilibrated);  // positions in candidates
+
+  KeptBlock block;
+  const long r = static_cast<long>(kept.size());
+  Eigen::MatrixXd keptBlock(r, r);
+  for (long i = 0; i < r; ++i) {
+    const int position = kept[static_cast<size_t>(i)];
+    block.coordinates.push_back(candidates[static_cast<size_t>(position)]);
+    block.scales.push_back(scale(position));
+    for (long j = 0; j < r; ++j) keptBlock(i, j) = equilibrated(position, kept[static_cast<size_t>(j)]);
+  }
+  if (r > 0) {
+    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(keptBlock);
+    block.inverse =
+        eigen.eigenvectors() * eigen.eigenvalues().cwiseInverse().asDiagonal() * eigen.eigenvectors().transpose();
+  }
+  return conditionalCovariance(freeIndices, block, jacobianMap);
 }
 
 }  // namespace blt::ble::fit_detail

@@ -84,12 +84,21 @@ struct FitOptions {
 struct FitResult {
   FitMethod method = FitMethod::TwoStage;
   ChristiansenCoefficients coefficients;
-  // Covariance of (VL, VH, CL, CH, SL, SH, X, XH), SI, row-major 8x8. Least squares: from ceres::Covariance scaled
-  // by the residual variance; Classify: the inverse of the observed information (Hessian of the negative
-  // log-likelihood). Rows and columns of coefficients a stage held fixed are zero for that stage's block only.
+  // Covariance of (VL, VH, CL, CH, SL, SH, X, XH), SI, row-major 8x8. Least squares: (JᵀJ)⁻¹ (from the SVD of
+  // the Jacobian J of the residuals, hinge terms included) scaled by the residual variance; Classify: the inverse
+  // of the observed information (Hessian of the negative log-likelihood), none when the curve separates the
+  // outcomes without overlap (the likelihood then has no maximum at any σ > 0). Rows and columns of coefficients a
+  // stage held fixed are zero for that stage's block only.
+  // Coefficients that end on a bound of ChristiansenBounds, and those the data do not determine at the optimum
+  // (a zero Jacobian column, or one that is a combination of the others: found by a column-pivoted QR of the
+  // equilibrated Jacobian, or a pivoted Cholesky of the equilibrated Hessian for Classify), are held at their
+  // fitted values: their rows and columns are zero, the others' block is the covariance with them known, and
+  // covarianceNote names each and why. Classify treats σ on its bound the same way. V_H on V_L +
+  // minimumTransitionWidth is tied: it has V_L's variance and covariances. The least-squares residual variance
+  // still divides by N minus every coefficient the stage fitted, held ones included.
   std::array<double, 64> covariance{};
   bool covarianceAvailable = false;
-  std::string covarianceNote;       // why it is unavailable or partial, when it is
+  std::string covarianceNote;       // why it is unavailable or partial (and what it holds), when it is
   double scatter = 0.0;             // Classify: fitted σ of ln(d/d_c); 0 for least squares
   double meanSquareError = 0.0;     // mean of (d - d_c)² over all points, m²
   int misclassified = 0;            // points on the wrong side of the curve
