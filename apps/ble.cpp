@@ -264,6 +264,7 @@ void runFit(const CLI::App& cmd, const FitCommandOptions& o) {
 struct QueryOptions {
   std::string db, name;
   double velocity = 0, angle = 0, density = 0, level = 0.90;
+  double diameter = 0;  // m; > 0 asks for the shot's margin ln(d/d_c)
   bool json = false;
 };
 
@@ -280,6 +281,11 @@ void runQuery(const CLI::App& cmd, const QueryOptions& o) {
   const ble::StoredFit fit = store.loadFit(o.name);
   const double density = densityFor(cmd, o.density, fit);
   const ble::DiameterBand band = ble::criticalDiameterBand(fit.result, o.velocity, o.angle, density, level);
+  if (cmd.count("--diameter") && !(o.diameter > 0.0))
+    throw InputError(InputLocation::flag("--diameter"), "the diameter must be positive, got " + units::format(o.diameter, "mm"),
+                     "a diameter > 0, e.g. 1.2mm");
+  const bool hasShot = o.diameter > 0.0;
+  const double margin = hasShot ? ble::margin(fit.result.coefficients, o.diameter, o.velocity, o.angle, density) : 0.0;
 
   // Flag a query outside the velocities and angles the fit has seen: the BLE is then an extrapolation.
   bool extrapolated = false;
@@ -293,7 +299,7 @@ void runQuery(const CLI::App& cmd, const QueryOptions& o) {
   }
 
   if (o.json) {
-    printJson({{"name", fit.name},
+    nlohmann::json doc{{"name", fit.name},
                {"method", ble::toString(fit.result.method)},
                {"velocity_m_s", o.velocity},
                {"angle_rad", o.angle},
@@ -303,7 +309,13 @@ void runQuery(const CLI::App& cmd, const QueryOptions& o) {
                {"band_low_m", band.low},
                {"band_high_m", band.high},
                {"band_available", fit.result.covarianceAvailable},
-               {"extrapolated", extrapolated}});
+               {"extrapolated", extrapolated}};
+    if (hasShot) {
+      doc["diameter_m"] = o.diameter;
+      doc["margin"] = margin;
+      doc["perforation_expected"] = margin > 0.0;
+    }
+    printJson(doc);
     return;
   }
   std::ostringstream out;
@@ -316,6 +328,9 @@ void runQuery(const CLI::App& cmd, const QueryOptions& o) {
   out << "\n  at " << units::format(o.velocity, "km/s", 4) << ", " << units::format(o.angle, "deg", 4) << ", "
       << units::format(density, "kg/m3", 5) << "; fit '" << fit.name << "' (" << ble::toString(fit.result.method)
       << ")\n";
+  if (hasShot)
+    out << "  shot of " << units::format(o.diameter, "mm", 4) << ": margin ln(d/d_c) = " << plain(margin, "%.4g") << ", "
+        << (margin > 0.0 ? "perforation expected" : "the target should stop it") << "\n";
   if (extrapolated) out << "  note: outside the velocities/angles of the fit's data, an extrapolation\n";
   std::cout << out.str();
 }
@@ -597,6 +612,8 @@ void registerBleCommand(CLI::App& app) {
     addQuantity(*cmd, "--angle", o->angle, units::angle, "impact angle from the target normal (default 0 deg)");
     addQuantity(*cmd, "--density", o->density, units::density,
                 "projectile density (default: the fit's default density)");
+    addQuantity(*cmd, "--diameter", o->diameter, units::length,
+                "a projectile diameter: also print its margin ln(d/d_c) and the expected outcome");
     cmd->add_option("--level", o->level, "two-sided probability of the band, 0 < level < 1")->capture_default_str();
     addJsonFlag(*cmd, o->json);
     cmd->callback([cmd, o] { runQuery(*cmd, *o); });

@@ -2,6 +2,8 @@
 // (sharp noses), and the `blt analytic chen-li` command's input errors.
 #include <doctest/doctest.h>
 
+#include "run_blt.hpp"
+
 #include <array>
 #include <cmath>
 #include <cstdio>
@@ -46,26 +48,6 @@ double noseFactorByQuadrature(double a, F nx2) {
     sum += w * nx2(r) * r;
   }
   return 2 / (a * a) * sum * h / 3;
-}
-
-struct Run {
-  int status = -1;
-  std::string output;
-};
-
-// Runs the blt binary of this build with `args` (stdout and stderr together).
-Run runBlt(const std::string& args, const std::string& env = {}) {
-  const std::string exe = std::string(BLT_BINARY_DIR) + "/bin/blt";
-  REQUIRE_MESSAGE(std::filesystem::exists(exe), "build the blt target first: " << exe);
-  const std::string command = env + (env.empty() ? "" : " ") + "'" + exe + "' " + args + " 2>&1";
-  Run run;
-  FILE* pipe = popen(command.c_str(), "r");
-  REQUIRE(pipe != nullptr);
-  std::array<char, 512> buf{};
-  while (fgets(buf.data(), buf.size(), pipe)) run.output += buf.data();
-  const int raw = pclose(pipe);
-  run.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
-  return run;
 }
 
 const std::string borvikFlags = "analytic chen-li --thickness 12mm --diameter 20mm --mass 0.197kg ";
@@ -228,7 +210,7 @@ TEST_CASE("chen-li: plate properties from a material card") {
 }
 
 TEST_CASE("chen-li CLI: results and units at the edges") {
-  Run run = runBlt(borvikFlags + "--density 7.85g/cm3 --yield 0.49GPa --velocity 250m/s --json");
+  BltRun run = runBlt(borvikFlags + "--density 7.85g/cm3 --yield 0.49GPa --velocity 250m/s --json");
   REQUIRE(run.status == 0);
   CHECK(run.output.find("\"v_bl_m_s\": 172.88") != std::string::npos);
   CHECK(run.output.find("\"v_r_m_s\": 156.99") != std::string::npos);
@@ -279,7 +261,7 @@ TEST_CASE("chen-li CLI: input errors name the flag, the value and what is allowe
        "flag --velocity: the impact velocity must not be negative, got -5 m/s"},
   };
   for (const Case& c : cases) {
-    const Run run = runBlt(c.args);
+    const BltRun run = runBlt(c.args);
     CHECK_MESSAGE(run.status == 2, c.args);
     CHECK_MESSAGE(run.output.find(c.expected) != std::string::npos, c.args << "\n  got: " << run.output);
   }

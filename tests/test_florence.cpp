@@ -1,6 +1,8 @@
 // Florence's ceramic/metal ballistic limit (seed 002 Eq. 22) and the `blt analytic florence` command.
 #include <doctest/doctest.h>
 
+#include "run_blt.hpp"
+
 #include <array>
 #include <cmath>
 #include <cstdio>
@@ -30,26 +32,6 @@ FlorenceInput sampleCase() {
   in.backingTensileStrength = 500e6;
   in.backingFailureStrain = 0.10;
   return in;
-}
-
-struct Run {
-  int status = -1;
-  std::string output;
-};
-
-// Runs the blt binary of this build with `args` (stdout and stderr together).
-Run runBlt(const std::string& args) {
-  const std::string exe = std::string(BLT_BINARY_DIR) + "/bin/blt";
-  REQUIRE_MESSAGE(std::filesystem::exists(exe), "build the blt target first: " << exe);
-  const std::string command = "'" + exe + "' " + args + " 2>&1";
-  Run run;
-  FILE* pipe = popen(command.c_str(), "r");
-  REQUIRE(pipe != nullptr);
-  std::array<char, 512> buf{};
-  while (fgets(buf.data(), buf.size(), pipe)) run.output += buf.data();
-  const int raw = pclose(pipe);
-  run.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
-  return run;
 }
 
 const std::string sampleFlags =
@@ -126,7 +108,7 @@ TEST_CASE("florence: bad library input is rejected") {
 }
 
 TEST_CASE("florence CLI: result, and input errors that name the flag") {
-  Run run = runBlt(sampleFlags + "--backing-thickness 0.4cm --velocity 50m/s --json");
+  BltRun run = runBlt(sampleFlags + "--backing-thickness 0.4cm --velocity 50m/s --json");
   REQUIRE(run.status == 0);
   CHECK(run.output.find("\"v_bl_m_s\": 45.793") != std::string::npos);
   CHECK(run.output.find("\"perforated\": true") != std::string::npos);
