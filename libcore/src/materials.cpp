@@ -30,6 +30,16 @@ struct ModelSpec {
 
 // The schema: which parameters each section's model takes and their dimensions.
 const std::vector<ModelSpec>& schema() {
+  // Johnson-Cook and Borvik's modified form take the same parameters (C differs in meaning, not in kind).
+  static const std::vector<ParamSpec> johnsonCook = {
+      {"A", units::pressure, "MPa"},
+      {"B", units::pressure, "MPa"},
+      {"n", units::dimensionless, ""},
+      {"C", units::dimensionless, ""},
+      {"m", units::dimensionless, ""},
+      {"reference_strain_rate", units::rate, "1/s"},
+      {"room_temperature", units::temperature, "K"},
+      {"melt_temperature", units::temperature, "K"}};
   static const std::vector<ModelSpec> specs = {
       {"elastic", "",
        {{"youngs_modulus", units::pressure, "MPa"},
@@ -38,26 +48,10 @@ const std::vector<ModelSpec>& schema() {
         {"bulk_modulus", units::pressure, "MPa"}}},
       {"strength", "elastic", {}},
       {"strength", "bilinear", {{"yield_stress", units::pressure, "MPa"}, {"tangent_modulus", units::pressure, "MPa"}}},
-      {"strength", "johnson-cook",
-       {{"A", units::pressure, "MPa"},
-        {"B", units::pressure, "MPa"},
-        {"n", units::dimensionless, ""},
-        {"C", units::dimensionless, ""},
-        {"m", units::dimensionless, ""},
-        {"reference_strain_rate", units::rate, "1/s"},
-        {"room_temperature", units::temperature, "K"},
-        {"melt_temperature", units::temperature, "K"}}},
+      {"strength", "johnson-cook", johnsonCook},
       // Borvik's modification (LS-DYNA material 107, seed 003 Eq. 18): rate term (1 + rate/reference)^C instead of
       // 1 + C ln(rate/reference); kept apart from johnson-cook because C means something else in it.
-      {"strength", "modified-johnson-cook",
-       {{"A", units::pressure, "MPa"},
-        {"B", units::pressure, "MPa"},
-        {"n", units::dimensionless, ""},
-        {"C", units::dimensionless, ""},
-        {"m", units::dimensionless, ""},
-        {"reference_strain_rate", units::rate, "1/s"},
-        {"room_temperature", units::temperature, "K"},
-        {"melt_temperature", units::temperature, "K"}}},
+      {"strength", "modified-johnson-cook", johnsonCook},
       // Johnson-Holmquist 1 for ceramics (seed 002 sec. 3.7): intact strength piecewise linear in pressure through
       // (P1, S1), (P2, S2), zero at -T (hydrostatic tensile strength); failed strength = slope * pressure capped at
       // max_failed_strength.
