@@ -9,5 +9,7 @@ void registerChenLiCommand(CLI::App& analytic);            // analytic_chen_li.c
 void registerFlorenceCommand(CLI::App& analytic);          // analytic_florence.cpp
 void registerUnitsCommand(CLI::App& app);                  // units.cpp
 void registerMaterialsCommand(CLI::App& app);              // materials.cpp
-void registerBleCommand(CLI::App& app);  // ble.cpp
+void registerBleCommand(CLI::App& app);                    // ble.cpp
+void registerSimCommand(CLI::App& app);                    // sim.cpp
+void registerBenchCommand(CLI::App& app);                  // sim.cpp
 }  // namespace blt::cli

@@ -22,6 +22,8 @@ int main(int argc, char** argv) {
   blt::cli::registerFlorenceCommand(*analytic);
   blt::cli::registerMaterialsCommand(app);
   blt::cli::registerBleCommand(app);
+  blt::cli::registerSimCommand(app);
+  blt::cli::registerBenchCommand(app);
   blt::cli::registerUnitsCommand(app);
 
   try {

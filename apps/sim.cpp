@@ -1,0 +1,295 @@
+// blt sim example: built-in solver cases with known answers, run with full output (ParaView series, energy
+// history, run summary). blt bench sim / blt bench taylor: speed and Taylor-bar figures of the MPM solver.
+// Scenario files (blt sim run) come with issue 5.
+#include <sys/resource.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <iostream>
+#include <memory>
+#include <omp.h>
+
+#include "blt/core/materials.hpp"
+#include "blt/sim/cases.hpp"
+#include "blt/sim/run.hpp"
+#include "cli_support.hpp"
+#include "commands.hpp"
+
+namespace blt::cli {
+
+namespace {
+
+using namespace blt::sim;
+
+// Zerilli and Armstrong, J. Appl. Phys. 61 (1987) 1816: OFHC copper Taylor tests, L0 = 25.4 mm, D0 = 7.62 mm.
+struct TaylorMeasurement {
+  double velocity, length, footprint;  // m/s, m, m
+};
+constexpr TaylorMeasurement kTaylorTests[] = {
+    {130.0, 19.558e-3, 9.906e-3}, {146.0, 18.694e-3, 10.668e-3}, {190.0, 16.205e-3, 13.564e-3}};
+
+std::string fmt(const char* format, double v) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, format, v);
+  return buf;
+}
+
+void setThreads(int threads) {
+  if (threads < 0)
+    throw InputError(InputLocation::flag("--threads"), "thread count must be positive", "1, 2, ... (0: all cores)");
+  if (threads > 0) omp_set_num_threads(threads);
+}
+
+double peakMemoryBytes() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  return static_cast<double>(usage.ru_maxrss) * 1024.0;  // Linux reports kilobytes
+}
+
+template <int D>
+RunHooks<D> progressHooks(bool quiet) {
+  RunHooks<D> hooks;
+  if (quiet) return hooks;
+  hooks.progress = [](const RunProgress& p) {
+    std::fprintf(stderr, "  step %ld  t = %.2f / %.2f us  dt = %.3g ns  kinetic %.4g J  %zu particles  wall %.1f s\n",
+                 p.step, p.time * 1e6, p.endTime * 1e6, p.timeStep * 1e9, p.energy.kinetic, p.activeParticles,
+                 p.wallSeconds);
+  };
+  return hooks;
+}
+
+struct TaylorOptions {
+  double velocity = 190.0, endTime = 80e-6;
+  int particlesPerDiameter = 10, frames = 16, threads = 0;
+  bool threeD = false, json = false;
+  std::string out = "taylor-bar-out";
+};
+
+template <int D>
+nlohmann::json runTaylor(const TaylorOptions& o, std::unique_ptr<Solver<D>> solver) {
+  RunOptions ro;
+  ro.endTime = o.endTime;
+  ro.outputDirectory = o.out;
+  ro.name = "taylor_bar";
+  ro.frames = o.frames;
+  if (!o.json)
+    std::fprintf(stderr, "Taylor bar, %s, %zu particles, %.0f m/s onto a rigid wall, to %.0f us; writing %s/\n",
+                 D == 3 ? "3D" : "axisymmetric", solver->particles().size(), o.velocity, o.endTime * 1e6,
+                 o.out.c_str());
+  const RunResult r = run<D>(*solver, ro, progressHooks<D>(o.json));
+  const TaylorBarShape shape = measureTaylorBar<D>(*solver);
+  nlohmann::json doc = r.summary;
+  doc["final_length_mm"] = shape.length * 1e3;
+  doc["footprint_diameter_mm"] = shape.footprintDiameter * 1e3;
+  for (const auto& m : kTaylorTests)
+    if (std::fabs(m.velocity - o.velocity) < 0.5) {
+      doc["measured_length_mm"] = m.length * 1e3;
+      doc["measured_footprint_diameter_mm"] = m.footprint * 1e3;
+      doc["measured_source"] = "Zerilli and Armstrong, J. Appl. Phys. 61 (1987) 1816";
+    }
+  return doc;
+}
+
+void exampleTaylor(const TaylorOptions& o) {
+  setThreads(o.threads);
+  if (!(o.velocity > 0)) throw InputError(InputLocation::flag("--velocity"), "the impact velocity must be positive", "e.g. 190 m/s");
+  if (!(o.endTime > 0)) throw InputError(InputLocation::flag("--end-time"), "the end time must be positive", "e.g. 80 us");
+  if (o.particlesPerDiameter < 4)
+    throw InputError(InputLocation::flag("--particles-per-diameter"), "too coarse", "at least 4");
+  const Material copper = MaterialLibrary::load().get("cu_ofhc");
+  TaylorBarCase c;
+  c.velocity = o.velocity;
+  c.particlesPerDiameter = o.particlesPerDiameter;
+  const nlohmann::json doc = o.threeD ? runTaylor<3>(o, makeTaylorBar3d(c, copper))
+                                      : runTaylor<2>(o, makeTaylorBarAxisymmetric(c, copper));
+  if (o.json) return printJson(doc);
+  std::cout << "status: " << doc["status"].get<std::string>();
+  if (!doc["message"].get<std::string>().empty()) std::cout << " (" << doc["message"].get<std::string>() << ")";
+  std::cout << "\nsteps: " << doc["steps"] << ", wall time " << fmt("%.2f s", doc["wall_time_s"].get<double>())
+            << "\nfinal length: " << fmt("%.3f mm", doc["final_length_mm"].get<double>())
+            << "\nfootprint diameter: " << fmt("%.3f mm", doc["footprint_diameter_mm"].get<double>()) << "\n";
+  if (doc.contains("measured_length_mm"))
+    std::cout << "measured (Zerilli and Armstrong 1987): " << fmt("%.3f mm", doc["measured_length_mm"].get<double>())
+              << " long, " << fmt("%.3f mm", doc["measured_footprint_diameter_mm"].get<double>()) << " footprint\n";
+  std::cout << "files in " << o.out << "/: ";
+  for (const auto& f : doc["files"]) std::cout << f.get<std::string>() << " ";
+  std::cout << "(open taylor_bar.pvd in ParaView)\n";
+}
+
+// ---- benchmarks ----
+
+struct BenchOptions {
+  int threads = 0;
+  bool json = false;
+  bool quick = false;
+};
+
+template <int D>
+nlohmann::json timeCase(const std::string& name, const std::string& description, Solver<D>& solver, long steps) {
+  RunOptions ro;
+  ro.endTime = 1.0;  // the step limit ends the run
+  ro.maxSteps = steps;
+  ro.energySamples = 0;
+  ro.frames = 0;
+  // One untimed step first: it touches every page of the grid and caches.
+  solver.step();
+  const RunResult r = run<D>(solver, ro);
+  const double n = static_cast<double>(solver.particles().size());
+  return {{"case", name},
+          {"description", description},
+          {"particles", solver.particles().size()},
+          {"steps", r.steps},
+          {"wall_time_s", r.wallSeconds},
+          {"particle_updates_per_s", r.particleUpdatesPerSecond},
+          {"solver_bytes_per_particle", static_cast<double>(solver.memoryBytes()) / n},
+          {"peak_rss_bytes_per_particle", peakMemoryBytes() / n}};
+}
+
+void benchSim(const BenchOptions& o) {
+  setThreads(o.threads);
+  const MaterialLibrary lib = MaterialLibrary::load();
+  const Material al2a12 = lib.get("al_2a12"), al5a06 = lib.get("al_5a06"), copper = lib.get("cu_ofhc");
+  nlohmann::json cases = nlohmann::json::array();
+  auto report = [&](const nlohmann::json& c) {
+    cases.push_back(c);
+    if (!o.json)
+      std::printf("%-22s %9zu particles %5ld steps %8.2f s  particle_updates_per_s %.3e  memory %.0f B/particle "
+                  "(solver), %.0f B/particle (peak RSS)\n",
+                  c["case"].get<std::string>().c_str(), c["particles"].get<std::size_t>(), c["steps"].get<long>(),
+                  c["wall_time_s"].get<double>(), c["particle_updates_per_s"].get<double>(),
+                  c["solver_bytes_per_particle"].get<double>(), c["peak_rss_bytes_per_particle"].get<double>());
+    std::fflush(stdout);
+  };
+  {
+    // 3D uGIMP MUSL, Johnson-Cook + Mie-Grueneisen + max principal stress: a 2A12 cylinder on a 5A06 plate
+    // (seed 000 Table 3 materials), quarter model, two bodies with multi-field contact.
+    PlateImpactCase c;
+    c.spacing = o.quick ? 0.2e-3 : 0.1e-3;
+    c.plateRadius = 14e-3;
+    c.plateThickness = 6e-3;
+    c.velocity = 5000;
+    auto solver = makePlateImpact3d(c, al2a12, al5a06);
+    report(timeCase<3>("3d-ugimp-musl-jc-mg",
+                       "2A12 cylinder on 5A06 plate at 5 km/s, 3D quarter model, uGIMP, MUSL, JC + MG, contact",
+                       *solver, o.quick ? 5 : 20));
+  }
+  {
+    TaylorBarCase c;  // 20 particles per diameter: about 21,000 particles in the full bar
+    auto solver = makeTaylorBar3d(c, copper);
+    report(timeCase<3>("taylor-bar-3d", "OFHC copper Taylor bar, full 3D, 20 particles per diameter, 190 m/s",
+                       *solver, o.quick ? 20 : 200));
+  }
+  {
+    PlateImpactCase c;
+    c.spacing = 0.05e-3;
+    c.plateRadius = 14e-3;
+    c.plateThickness = 3e-3;
+    c.projectileDiameter = 1e-3;
+    c.projectileLength = 1e-3;
+    c.velocity = 5000;
+    auto solver = makePlateImpactAxisymmetric(c, al2a12, al5a06);
+    report(timeCase<2>("axisymmetric-jc-mg",
+                       "2A12 cylinder on a 3 mm 5A06 plate at 5 km/s, axisymmetric, 0.05 mm spacing, contact",
+                       *solver, o.quick ? 50 : 300));
+  }
+  if (o.json)
+    printJson({{"threads", o.threads > 0 ? o.threads : omp_get_max_threads()}, {"cases", cases}});
+}
+
+struct BenchTaylorOptions {
+  int threads = 0, particlesPerDiameter = 20;
+  bool threeD = false, json = false;
+};
+
+void benchTaylor(const BenchTaylorOptions& o) {
+  setThreads(o.threads);
+  const Material copper = MaterialLibrary::load().get("cu_ofhc");
+  nlohmann::json rows = nlohmann::json::array();
+  for (const auto& m : kTaylorTests) {
+    TaylorBarCase c;
+    c.velocity = m.velocity;
+    c.particlesPerDiameter = o.particlesPerDiameter;
+    RunOptions ro;
+    ro.endTime = 80e-6;
+    TaylorBarShape shape;
+    RunResult r;
+    if (o.threeD) {
+      auto s = makeTaylorBar3d(c, copper);
+      r = run<3>(*s, ro);
+      shape = measureTaylorBar<3>(*s);
+    } else {
+      auto s = makeTaylorBarAxisymmetric(c, copper);
+      r = run<2>(*s, ro);
+      shape = measureTaylorBar<2>(*s);
+    }
+    const double eL = shape.length / m.length - 1, eD = shape.footprintDiameter / m.footprint - 1;
+    rows.push_back({{"velocity_m_s", m.velocity},
+                    {"length_mm", shape.length * 1e3},
+                    {"measured_length_mm", m.length * 1e3},
+                    {"length_error", eL},
+                    {"footprint_diameter_mm", shape.footprintDiameter * 1e3},
+                    {"measured_footprint_diameter_mm", m.footprint * 1e3},
+                    {"footprint_error", eD},
+                    {"status", toString(r.status)},
+                    {"wall_time_s", r.wallSeconds}});
+    if (!o.json)
+      std::printf("%5.0f m/s  length %.3f mm (measured %.3f, %+.1f %%)  footprint %.3f mm (measured %.3f, %+.1f %%)  "
+                  "%.1f s\n",
+                  m.velocity, shape.length * 1e3, m.length * 1e3, 100 * eL, shape.footprintDiameter * 1e3,
+                  m.footprint * 1e3, 100 * eD, r.wallSeconds);
+  }
+  if (o.json)
+    printJson({{"geometry", o.threeD ? "3d" : "axisymmetric"},
+               {"particles_per_diameter", o.particlesPerDiameter},
+               {"source", "Zerilli and Armstrong, J. Appl. Phys. 61 (1987) 1816"},
+               {"targets", "length within 3 %, footprint within 5 % (issue 4)"},
+               {"results", rows}});
+}
+
+}  // namespace
+
+void registerSimCommand(CLI::App& app) {
+  auto* sim = app.add_subcommand("sim", "MPM impact solver: built-in example cases (scenario files: issue 5)");
+  sim->require_subcommand(1);
+  auto* example = sim->add_subcommand("example", "Run a built-in case with known answers and write its output");
+  example->require_subcommand(1);
+  auto to = std::make_shared<TaylorOptions>();
+  auto* taylor = example->add_subcommand(
+      "taylor-bar",
+      "OFHC copper Taylor bar (L0 25.4 mm, D0 7.62 mm) onto a rigid wall; writes taylor_bar.pvd + .vtu frames, "
+      "taylor_bar_energy.csv and taylor_bar_summary.json");
+  addQuantity(*taylor, "--velocity", to->velocity, units::velocity, "Impact velocity (default 190 m/s)");
+  addQuantity(*taylor, "--end-time", to->endTime, units::time, "Simulated time (default 80 us)");
+  taylor->add_option("--particles-per-diameter", to->particlesPerDiameter, "Resolution (default 10)");
+  taylor->add_flag("--3d", to->threeD, "Full 3D model instead of axisymmetric");
+  taylor->add_option("--out", to->out, "Output directory (default taylor-bar-out)");
+  taylor->add_option("--frames", to->frames, "Particle frames written over the run (default 16)");
+  taylor->add_option("--threads", to->threads, "OpenMP threads (default: all cores)");
+  addJsonFlag(*taylor, to->json);
+  taylor->callback([to] { exampleTaylor(*to); });
+}
+
+void registerBenchCommand(CLI::App& app) {
+  auto* bench = app.add_subcommand("bench", "Benchmarks: print speed and accuracy figures (not tests)");
+  bench->require_subcommand(1);
+  auto bo = std::make_shared<BenchOptions>();
+  auto* sim = bench->add_subcommand(
+      "sim",
+      "Solver speed on fixed cases (3D uGIMP ~1e6 particles, 3D Taylor bar ~21,000 particles, axisymmetric): "
+      "particle_updates_per_s and memory per particle");
+  sim->add_option("--threads", bo->threads, "OpenMP threads (default: all cores)");
+  sim->add_flag("--quick", bo->quick, "Smaller 3D case and fewer steps (a smoke run)");
+  addJsonFlag(*sim, bo->json);
+  sim->callback([bo] { benchSim(*bo); });
+  auto tb = std::make_shared<BenchTaylorOptions>();
+  auto* taylor = bench->add_subcommand(
+      "taylor", "Taylor bar at 130, 146 and 190 m/s against Zerilli and Armstrong 1987 (final length, footprint)");
+  taylor->add_option("--particles-per-diameter", tb->particlesPerDiameter, "Resolution (default 20)");
+  taylor->add_flag("--3d", tb->threeD, "Full 3D model instead of axisymmetric");
+  taylor->add_option("--threads", tb->threads, "OpenMP threads (default: all cores)");
+  addJsonFlag(*taylor, tb->json);
+  taylor->callback([tb] { benchTaylor(*tb); });
+}
+
+}  // namespace blt::cli

@@ -1,0 +1,62 @@
+#pragma once
+// Running a solver to an end time: field frames and the energy history at fixed intervals, progress reports,
+// an optional stop test (the perforation verdict of a scenario), and the instability guard. A run that goes
+// unstable (a non-finite particle state, total energy growing past the bound, the time step collapsing) stops
+// with a message that says where and when; everything written up to then is kept.
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "blt/sim/solver.hpp"
+
+namespace blt::sim {
+
+struct RunOptions {
+  double endTime = 0;                // s
+  std::string outputDirectory;       // empty: write nothing
+  std::string name = "run";          // file stem: NAME.pvd, NAME_0000.vtu, NAME_energy.csv, NAME_summary.json
+  int frames = 10;                   // particle frames written over [0, endTime] (plus the last state)
+  int energySamples = 200;           // rows of the energy history over [0, endTime]
+  // Unstable when total energy exceeds (1 + energyGrowthLimit) x the largest total seen in the first step
+  // plus the work done by nothing else (the model has no external loads).
+  double energyGrowthLimit = 0.05;
+  double minTimeStepRatio = 1e-4;    // unstable when dt falls below this fraction of the first step's
+  long maxSteps = -1;                // stop after this many steps (benchmarks); -1: no limit
+  double progressSeconds = 2.0;      // wall time between progress reports
+};
+
+enum class RunStatus { completed, stopped, unstable, stepLimit };
+const char* toString(RunStatus s);
+
+struct RunProgress {
+  long step = 0;
+  double time = 0, endTime = 0, timeStep = 0, wallSeconds = 0;
+  std::size_t activeParticles = 0;
+  EnergyBalance energy;
+};
+
+struct RunResult {
+  RunStatus status = RunStatus::completed;
+  std::string message;  // why the run stopped, for stopped and unstable runs
+  long steps = 0;
+  double time = 0, wallSeconds = 0;
+  double particleUpdatesPerSecond = 0;
+  EnergyBalance initialEnergy, finalEnergy;
+  std::vector<std::string> files;  // written, relative to the output directory
+  nlohmann::json summary;          // what NAME_summary.json holds
+};
+
+template <int D>
+struct RunHooks {
+  std::function<void(const RunProgress&)> progress;
+  // Returns a non-empty reason to stop early (checked at every energy sample).
+  std::function<std::string(const Solver<D>&)> stop;
+};
+
+template <int D>
+RunResult run(Solver<D>& solver, const RunOptions& options, const RunHooks<D>& hooks = {});
+
+}  // namespace blt::sim

@@ -1,0 +1,167 @@
+#pragma once
+// The explicit MPM solver: particles, a regular background grid with one velocity field per body, the
+// constitutive update, contact and boundaries. The update scheme (MUSL or USL, update_scheme.hpp) calls the
+// solver's stages by name; this class owns the data and the stages, nothing else. Running to an end time
+// with output and instability checks is in run.hpp.
+//
+// D = 3: Cartesian 3D. D = 2: axisymmetric (r, z) by default (r = axis 0, the symmetry axis at r = 0 must be
+// the grid's lower face on axis 0 with a symmetry boundary), or plane strain.
+
+#include <array>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "blt/sim/constitutive.hpp"
+#include "blt/sim/particles.hpp"
+#include "blt/sim/shape_function.hpp"
+
+namespace blt::sim {
+
+enum class UpdateSchemeKind { musl, usl };
+enum class ContactMode { multiField, singleField };
+// Boundary of one grid face:
+// - free: nothing imposed (material must stay inside the grid; a particle that leaves it is deactivated);
+// - fixed: all velocity components zero (a clamped edge);
+// - symmetry: the normal velocity is zero (a symmetry plane, the axis of an axisymmetric run, a rigid
+//   frictionless wall);
+// - nonReflecting: viscous dashpots, normal rho c_d and tangential rho c_s per unit area, absorb waves
+//   leaving the domain (the transmitting lateral edges of seed 000 sec. 5.1).
+enum class BoundaryKind { free, fixed, symmetry, nonReflecting };
+
+const char* toString(ShapeFunctionKind k);
+const char* toString(UpdateSchemeKind k);
+const char* toString(BoundaryKind k);
+
+struct ContactOptions {
+  // multiField: one nodal velocity field per body, corrected where bodies meet so that they do not
+  // interpenetrate but can slide and separate. singleField: all bodies share one field (they stick).
+  ContactMode mode = ContactMode::multiField;
+  double friction = 0.0;  // Coulomb coefficient between bodies
+};
+
+struct SolverOptions {
+  ShapeFunctionKind shapeFunction = ShapeFunctionKind::uGimp;
+  UpdateSchemeKind scheme = UpdateSchemeKind::musl;
+  // dt = timeStepSafety * min over particles of cell / (c + |v|), seed 001 Eq. 8.
+  double timeStepSafety = 0.3;
+  // Particle velocity update: 1 = FLIP (v_p += sum N dv_I, little dissipation), 0 = PIC (v_p = sum N v_I).
+  double flipFraction = 1.0;
+  BulkViscosity viscosity;
+  ContactOptions contact;
+  bool axisymmetric = true;  // D = 2 only; false gives plane strain
+  int threads = 0;           // OpenMP threads; 0 keeps the OpenMP default (OMP_NUM_THREADS or all cores)
+};
+
+template <int D>
+struct GridSpec {
+  Vec<D> lower = Vec<D>::Zero();  // m, position of node 0
+  Vec<D> upper = Vec<D>::Zero();  // m, rounded up to whole cells
+  double cellSize = 0;            // m
+  // Faces in the order (axis 0 lower, axis 0 upper, axis 1 lower, ...).
+  std::array<BoundaryKind, 2 * D> boundary{};
+};
+
+// Energies of the whole model (per radian in axisymmetric runs), J. Internal energy includes the elastic
+// strain energy, the plastic work and the bulk viscosity heating; plastic and viscous work are shown apart
+// as parts of it. contactDissipation is the kinetic energy the multi-field contact correction removes at the
+// nodes where bodies meet; boundaryWork is what the non-reflecting faces absorb (fixed faces and symmetry
+// planes do no work). total = kinetic + internal + contact + boundary is conserved up to the scheme's own error.
+struct EnergyBalance {
+  double kinetic = 0, internal = 0, plasticWork = 0, viscousWork = 0, contactDissipation = 0, boundaryWork = 0;
+  double total() const { return kinetic + internal + contactDissipation + boundaryWork; }
+};
+
+template <int D>
+struct Stencil {
+  int node = 0;  // linear index of the stencil's first node
+  double w[D][kStencil];
+  double g[D][kStencil];
+};
+
+template <int D>
+class Solver {
+ public:
+  Solver(const GridSpec<D>& grid, const SolverOptions& options, std::vector<SolidMaterial> materials);
+  ~Solver();
+
+  Particles<D>& particles() { return particles_; }
+  const Particles<D>& particles() const { return particles_; }
+  const std::vector<SolidMaterial>& materials() const { return materials_; }
+  const GridSpec<D>& grid() const { return spec_; }
+  const SolverOptions& options() const { return options_; }
+  const Eigen::Array<int, D, 1>& nodeCounts() const { return nodes_; }
+
+  // Sizes the grid fields and caches once the particles are in place; call before the first step.
+  void initialise();
+  // One step of the configured update scheme. Afterwards time() has advanced by the step's dt.
+  void step();
+
+  double time() const { return time_; }
+  double timeStep() const { return dt_; }  // the step about to be taken
+  long stepCount() const { return steps_; }
+  int bodyCount() const { return bodies_; }
+  std::size_t activeParticles() const { return activeCount_; }
+  EnergyBalance energies() const;
+  // Bytes held by particles, grid and caches.
+  std::size_t memoryBytes() const;
+  // First particle with a non-finite position, velocity or stress, or -1.
+  long firstNonFiniteParticle() const;
+
+  // Stages, called by the update scheme in its order.
+  void computeShapeFunctions();  // stencils at the particles' current positions; bins particles for threads
+  void particlesToGrid();        // mass, momentum, internal force, mass gradient per body
+  void integrateGrid();          // nodal velocities at the end of the step, boundaries, contact
+  void gridToParticles();        // particle velocities (FLIP/PIC) and positions
+  void remapMomentum();          // MUSL: nodal velocities from the updated particle momenta
+  void updateStress();           // velocity gradient, deformation, constitutive update, next dt
+
+  // Restores a state written by writeRestart (run.hpp); grid fields are rebuilt each step and not stored.
+  void setClock(double time, long steps, double dt) { time_ = time; steps_ = steps; dt_ = dt; }
+  void addEnergyTallies(double contact, double boundary) { contactDissipation_ += contact; boundaryWork_ += boundary; }
+  std::pair<double, double> energyTallies() const { return {contactDissipation_, boundaryWork_}; }
+
+ private:
+  void applyVelocityConditions(bool integrate);
+  void bodyWaveSpeeds();
+  template <class F>
+  void scatterByColour(F&& body);
+
+  GridSpec<D> spec_;
+  SolverOptions options_;
+  std::vector<SolidMaterial> materials_;
+  Particles<D> particles_;
+  std::unique_ptr<class UpdateSchemeBase> scheme_;
+
+  // Grid: fields per body, laid out [body][node].
+  Eigen::Array<int, D, 1> nodes_;
+  Eigen::Array<long, D, 1> strides_;
+  std::size_t nodeCount_ = 0;
+  int bodies_ = 1;
+  std::vector<double> mass_;
+  std::vector<Vec<D>> momentum_, force_, velocity_, velocityChange_, massGradient_;
+  std::vector<Vec<D>> contactDelta_, boundaryDelta_;  // velocity changes made by contact and by dashpots
+  bool trackBoundary_ = false;
+  std::vector<double> bodyWaveSpeed_, bodyShearSpeed_;
+
+  // Per-particle caches and thread bins.
+  std::vector<Stencil<D>> stencil_;
+  std::vector<int> slabOf_;
+  std::vector<int> order_;      // active particles sorted by slab
+  std::vector<int> slabStart_;  // slab s holds order_[slabStart_[s] .. slabStart_[s+1])
+  std::vector<int> cursor_;
+  int slabAxis_ = 0, slabCount_ = 0;
+  std::size_t activeCount_ = 0;
+  int threads_ = 1;
+  bool parallel_ = false;
+
+  double time_ = 0, dt_ = 0;
+  long steps_ = 0;
+  double massEpsilon_ = 0;
+  double contactDissipation_ = 0, boundaryWork_ = 0;
+};
+
+extern template class Solver<2>;
+extern template class Solver<3>;
+
+}  // namespace blt::sim

@@ -1,2 +1,0 @@
-// libsim is built out in issue 4 (MPM impact solver).
-namespace blt::sim {}

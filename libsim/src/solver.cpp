@@ -1,0 +1,591 @@
+#include "blt/sim/solver.hpp"
+
+#include <omp.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+
+#include "blt/sim/update_scheme.hpp"
+
+namespace blt::sim {
+
+const char* toString(ShapeFunctionKind k) { return k == ShapeFunctionKind::linear ? "linear" : "uGIMP"; }
+const char* toString(UpdateSchemeKind k) { return k == UpdateSchemeKind::musl ? "MUSL" : "USL"; }
+const char* toString(BoundaryKind k) {
+  switch (k) {
+    case BoundaryKind::free: return "free";
+    case BoundaryKind::fixed: return "fixed";
+    case BoundaryKind::symmetry: return "symmetry";
+    case BoundaryKind::nonReflecting: return "non-reflecting";
+  }
+  return "?";
+}
+
+template <int D>
+Solver<D>::Solver(const GridSpec<D>& grid, const SolverOptions& options, std::vector<SolidMaterial> materials)
+    : spec_(grid), options_(options), materials_(std::move(materials)) {
+  if (!(spec_.cellSize > 0)) throw std::invalid_argument("grid cell size must be positive");
+  for (int a = 0; a < D; ++a) {
+    const double span = spec_.upper[a] - spec_.lower[a];
+    if (!(span > 0)) throw std::invalid_argument("grid upper corner must lie above the lower corner on every axis");
+    nodes_[a] = static_cast<int>(std::ceil(span / spec_.cellSize - 1e-9)) + 1;
+    nodes_[a] = std::max(nodes_[a], 3);
+    spec_.upper[a] = spec_.lower[a] + (nodes_[a] - 1) * spec_.cellSize;
+  }
+  if (options_.scheme == UpdateSchemeKind::musl)
+    scheme_ = std::make_unique<Musl<D>>();
+  else
+    scheme_ = std::make_unique<Usl<D>>();
+}
+
+template <int D>
+Solver<D>::~Solver() = default;
+
+namespace {
+int threadCount(const SolverOptions& o) { return o.threads > 0 ? o.threads : omp_get_max_threads(); }
+// Below this many particles a step is too short for threads to pay for their barriers (and on a loaded machine
+// a descheduled thread stalls every barrier), so small runs stay serial.
+constexpr std::size_t kParallelThreshold = 20000;
+// Share of a node's mass below which a body takes no part in the contact correction there.
+constexpr double kContactMassFraction = 0.05;
+}  // namespace
+
+template <int D>
+void Solver<D>::initialise() {
+  const std::size_t n = particles_.size();
+  nodeCount_ = 1;
+  for (int a = 0; a < D; ++a) {
+    strides_[a] = static_cast<long>(nodeCount_);
+    nodeCount_ *= static_cast<std::size_t>(nodes_[a]);
+  }
+  int maxBody = 0;
+  for (std::size_t p = 0; p < n; ++p) {
+    maxBody = std::max(maxBody, particles_.body[p]);
+    const int mat = particles_.material[p];
+    if (mat < 0 || mat >= static_cast<int>(materials_.size()))
+      throw std::invalid_argument("particle material index out of range");
+  }
+  bodies_ = options_.contact.mode == ContactMode::multiField ? maxBody + 1 : 1;
+  const std::size_t fields = nodeCount_ * static_cast<std::size_t>(bodies_);
+  mass_.assign(fields, 0.0);
+  momentum_.assign(fields, Vec<D>::Zero());
+  force_.assign(fields, Vec<D>::Zero());
+  velocity_.assign(fields, Vec<D>::Zero());
+  velocityChange_.assign(fields, Vec<D>::Zero());
+  if (bodies_ > 1) {
+    massGradient_.assign(fields, Vec<D>::Zero());
+    contactDelta_.assign(fields, Vec<D>::Zero());
+  }
+  trackBoundary_ = false;
+  for (auto f : spec_.boundary) trackBoundary_ |= f == BoundaryKind::nonReflecting;
+  if (trackBoundary_) boundaryDelta_.assign(fields, Vec<D>::Zero());
+  stencil_.resize(n);
+  slabOf_.assign(n, 0);
+  order_.assign(n, 0);
+  slabAxis_ = 0;
+  for (int a = 1; a < D; ++a)
+    if (nodes_[a] > nodes_[slabAxis_]) slabAxis_ = a;
+  // Slabs two cells wide along the longest axis: a particle of slab s writes nodes of slabs s and s+1 only
+  // (three-node stencil), so slabs of one parity can scatter concurrently without locks.
+  slabCount_ = (nodes_[slabAxis_] + 1) / 2;
+  slabStart_.assign(static_cast<std::size_t>(slabCount_) + 1, 0);
+
+  double minMass = std::numeric_limits<double>::infinity();
+  for (std::size_t p = 0; p < n; ++p) minMass = std::min(minMass, particles_.mass[p]);
+  massEpsilon_ = n ? 1e-9 * minMass : 0.0;
+
+  bodyWaveSpeeds();
+  // First step from the undeformed wave speeds.
+  double dtMin = std::numeric_limits<double>::infinity();
+  for (std::size_t p = 0; p < n; ++p) {
+    const double c = materials_[particles_.material[p]].referenceWaveSpeed();
+    particles_.soundSpeed[p] = c;
+    dtMin = std::min(dtMin, spec_.cellSize / (c + particles_.velocity[p].norm()));
+  }
+  dt_ = options_.timeStepSafety * dtMin;
+  activeCount_ = n;
+  threads_ = threadCount(options_);
+  parallel_ = threads_ > 1 && n >= kParallelThreshold;
+}
+
+template <int D>
+void Solver<D>::bodyWaveSpeeds() {
+  bodyWaveSpeed_.assign(bodies_, 0.0);
+  bodyShearSpeed_.assign(bodies_, 0.0);
+  for (std::size_t p = 0; p < particles_.size(); ++p) {
+    const int b = bodies_ > 1 ? particles_.body[p] : 0;
+    const SolidMaterial& m = materials_[particles_.material[p]];
+    bodyWaveSpeed_[b] = std::max(bodyWaveSpeed_[b], m.referenceWaveSpeed());
+    bodyShearSpeed_[b] = std::max(bodyShearSpeed_[b], std::sqrt(m.shearModulus / m.density));
+  }
+}
+
+template <int D>
+void Solver<D>::step() {
+  static_cast<const UpdateScheme<D>&>(*scheme_).advance(*this);
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// Stage 1: stencils and thread bins.
+template <int D>
+void Solver<D>::computeShapeFunctions() {
+  const std::size_t n = particles_.size();
+  const double h = spec_.cellSize;
+  const ShapeFunctionKind kind = options_.shapeFunction;
+  const int ns = stencilSize(kind);
+#pragma omp parallel for schedule(static) num_threads(threads_) if (parallel_)
+  for (long p = 0; p < static_cast<long>(n); ++p) {
+    if (!particles_.active[p]) {
+      slabOf_[p] = -1;
+      continue;
+    }
+    const Vec<D>& x = particles_.position[p];
+    Stencil<D>& st = stencil_[p];
+    long node = 0;
+    bool inside = true;
+    for (int a = 0; a < D; ++a) {
+      const double len = (nodes_[a] - 1) * h;
+      double xi = x[a] - spec_.lower[a];
+      if (!(xi >= -0.5 * h && xi <= len + 0.5 * h)) {  // also catches NaN
+        inside = false;
+        break;
+      }
+      // A particle within its half-width of a face is evaluated as touching the face from inside.
+      const double lp = kind == ShapeFunctionKind::linear ? 0.0 : particles_.halfSize[p][a];
+      xi = std::clamp(xi, lp, len - lp - 1e-12 * h);
+      const int base = stencilBase(kind, xi, h, lp, nodes_[a]);
+      for (int k = 0; k < kStencil; ++k) {
+        if (k < ns)
+          stencilNode(kind, xi, h, lp, base + k, st.w[a][k], st.g[a][k]);
+        else
+          st.w[a][k] = st.g[a][k] = 0.0;
+      }
+      node += base * strides_[a];
+      if (a == slabAxis_) slabOf_[p] = base / 2;
+    }
+    if (!inside) {
+      particles_.active[p] = 0;
+      slabOf_[p] = -1;
+      continue;
+    }
+    st.node = static_cast<int>(node);
+  }
+  // Counting sort of the active particles by slab.
+  std::fill(slabStart_.begin(), slabStart_.end(), 0);
+  for (std::size_t p = 0; p < n; ++p)
+    if (slabOf_[p] >= 0) ++slabStart_[slabOf_[p] + 1];
+  for (int s = 0; s < slabCount_; ++s) slabStart_[s + 1] += slabStart_[s];
+  activeCount_ = static_cast<std::size_t>(slabStart_[slabCount_]);
+  // slabOf_ is reused as the running cursor of each particle's slab.
+  std::vector<int>& cursor = cursor_;
+  cursor.assign(slabStart_.begin(), slabStart_.end() - 1);
+  for (std::size_t p = 0; p < n; ++p)
+    if (slabOf_[p] >= 0) order_[static_cast<std::size_t>(cursor[slabOf_[p]]++)] = static_cast<int>(p);
+}
+
+// Calls f(nodeOffset, w, grad) for every node of particle p's stencil.
+template <int D, class F>
+inline void forEachNode(const Stencil<D>& st, const Eigen::Array<long, D, 1>& strides, int ns, F&& f) {
+  if constexpr (D == 3) {
+    for (int c = 0; c < ns; ++c)
+      for (int b = 0; b < ns; ++b) {
+        const long row = st.node + c * strides[2] + b * strides[1];
+        const double wyz = st.w[1][b] * st.w[2][c];
+        const double gyz = st.g[1][b] * st.w[2][c];
+        const double wygz = st.w[1][b] * st.g[2][c];
+        for (int a = 0; a < ns; ++a) {
+          const double w = st.w[0][a] * wyz;
+          const Vec<3> g(st.g[0][a] * wyz, st.w[0][a] * gyz, st.w[0][a] * wygz);
+          f(row + a, w, g);
+        }
+      }
+  } else {
+    for (int b = 0; b < ns; ++b) {
+      const long row = st.node + b * strides[1];
+      for (int a = 0; a < ns; ++a) {
+        const double w = st.w[0][a] * st.w[1][b];
+        const Vec<2> g(st.g[0][a] * st.w[1][b], st.w[0][a] * st.g[1][b]);
+        f(row + a, w, g);
+      }
+    }
+  }
+}
+
+// Runs body(p) for every active particle, slab parity by parity, so that scatters from concurrent threads
+// never touch the same node.
+template <int D>
+template <class F>
+void Solver<D>::scatterByColour(F&& body) {
+#pragma omp parallel num_threads(threads_) if (parallel_)
+  for (int colour = 0; colour < 2; ++colour) {
+#pragma omp for schedule(dynamic, 1)
+    for (int s = colour; s < slabCount_; s += 2)
+      for (int i = slabStart_[s]; i < slabStart_[s + 1]; ++i) body(order_[static_cast<std::size_t>(i)]);
+  }
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// Stage 2: particles to grid.
+template <int D>
+void Solver<D>::particlesToGrid() {
+  const std::size_t fields = mass_.size();
+#pragma omp parallel for schedule(static) num_threads(threads_) if (parallel_)
+  for (long i = 0; i < static_cast<long>(fields); ++i) {
+    mass_[i] = 0.0;
+    momentum_[i].setZero();
+    force_[i].setZero();
+    if (bodies_ > 1) massGradient_[i].setZero();
+  }
+  const int ns = stencilSize(options_.shapeFunction);
+  const bool hoop = D == 2 && options_.axisymmetric;
+  const bool gradients = bodies_ > 1;
+  scatterByColour([&](int p) {
+    const long off = bodies_ > 1 ? static_cast<long>(particles_.body[p]) * static_cast<long>(nodeCount_) : 0;
+    const double m = particles_.mass[p];
+    const Vec<D> mv = m * particles_.velocity[p];
+    const double V = particles_.volume[p];
+    Mat3 sig = particles_.stress[p];
+    sig.diagonal().array() -= particles_.viscousPressure[p];
+    const double hoopStress = hoop ? sig(2, 2) / particles_.position[p][0] : 0.0;
+    const Eigen::Matrix<double, D, D> s = sig.template topLeftCorner<D, D>();
+    forEachNode<D>(stencil_[p], strides_, ns, [&](long node, double w, const Vec<D>& g) {
+      const long i = off + node;
+      mass_[i] += w * m;
+      momentum_[i] += w * mv;
+      Vec<D> f = s * g;
+      if constexpr (D == 2) f[0] += hoopStress * w;
+      force_[i] -= V * f;
+      if (gradients) massGradient_[i] += m * g;
+    });
+  });
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// Stage 3: grid momentum update, contact, boundaries.
+
+// Contact between the bodies present at one node (multi-field): bodies that approach the node's centre of
+// mass along their outward normal lose that velocity component; the tangential part is limited by Coulomb
+// friction. v, m, normal: per body; `count` bodies take part, their indices in `ids`.
+template <int D>
+static void correctContact(Vec<D>* v, const double* m, const Vec<D>* normal, const int* ids, int count,
+                             double friction) {
+  double mt = 0;
+  Vec<D> p = Vec<D>::Zero();
+  for (int k = 0; k < count; ++k) {
+    mt += m[ids[k]];
+    p += m[ids[k]] * v[ids[k]];
+  }
+  const Vec<D> vcm = p / mt;
+  for (int k = 0; k < count; ++k) {
+    const int b = ids[k];
+    const Vec<D>& n = normal[b];
+    const Vec<D> dv = v[b] - vcm;
+    const double dn = dv.dot(n);
+    if (!(dn > 0)) continue;  // separating or sliding tangentially: no correction
+    const Vec<D> tangential = dv - dn * n;
+    const double tn = tangential.norm();
+    Vec<D> vNew;
+    if (friction * dn >= tn)
+      vNew = vcm;  // stick
+    else
+      vNew = v[b] - dn * n - (tn > 0 ? friction * dn / tn : 0.0) * tangential;
+    v[b] = vNew;
+  }
+}
+
+// Imposes the face conditions on one nodal velocity and returns the part of the change made by the dashpots
+// (the energy they absorb is tallied on the particles). Fixed faces and symmetry planes do no work.
+template <int D>
+static Vec<D> applyFaceConditions(Vec<D>& v, const std::array<BoundaryKind, 2 * D>& faces, const int* index,
+                                  const Eigen::Array<int, D, 1>& nodes, double dashpotNormal, double dashpotShear) {
+  Vec<D> dashpot = Vec<D>::Zero();
+  for (int a = 0; a < D; ++a) {
+    for (int side = 0; side < 2; ++side) {
+      if (index[a] != (side == 0 ? 0 : nodes[a] - 1)) continue;
+      switch (faces[2 * a + side]) {
+        case BoundaryKind::free: break;
+        case BoundaryKind::fixed: v.setZero(); break;
+        case BoundaryKind::symmetry: v[a] = 0.0; break;
+        case BoundaryKind::nonReflecting: {
+          // Implicit dashpot (unconditionally stable): v_n / (1 + 2 c_d dt / h), same with c_s tangentially.
+          const Vec<D> before = v;
+          for (int c = 0; c < D; ++c) v[c] /= 1.0 + (c == a ? dashpotNormal : dashpotShear);
+          dashpot += v - before;
+          break;
+        }
+      }
+    }
+  }
+  return dashpot;
+}
+
+template <int D>
+void Solver<D>::applyVelocityConditions(bool integrate) {
+  const double dt = dt_;
+  const double h = spec_.cellSize;
+  const int B = bodies_;
+  const long N = static_cast<long>(nodeCount_);
+  bool anyBoundary = false;
+  for (auto f : spec_.boundary) anyBoundary |= f != BoundaryKind::free;
+  const bool contact = B > 1;
+  const double mu = options_.contact.friction;
+#pragma omp parallel for schedule(static) num_threads(threads_) if (parallel_)
+  for (long n = 0; n < N; ++n) {
+    constexpr int kMaxBodies = 16;
+    Vec<D> v[kMaxBodies];
+    Vec<D> normal[kMaxBodies];
+    double m[kMaxBodies];
+    int ids[kMaxBodies];
+    int count = 0;
+    for (int b = 0; b < B; ++b) {
+      const long i = b * N + n;
+      m[b] = mass_[i];
+      if (integrate) {
+        if (contact) contactDelta_[i].setZero();
+        if (trackBoundary_) boundaryDelta_[i].setZero();
+      }
+      if (m[b] <= massEpsilon_) {
+        velocity_[i].setZero();
+        velocityChange_[i].setZero();
+        continue;
+      }
+      if (integrate) {
+        const Vec<D> vOld = momentum_[i] / m[b];
+        v[b] = (momentum_[i] + dt * force_[i]) / m[b];
+        velocityChange_[i] = vOld;  // holds the old velocity until the end of this node's update
+      } else {
+        v[b] = momentum_[i] / m[b];
+      }
+      if (count < kMaxBodies) ids[count++] = b;
+    }
+    if (count == 0) continue;
+    // Contact only among bodies that carry a real share of the node's mass: a body touching a node with a sliver
+    // of weight has an ill-defined nodal velocity there (its force over its tiny mass), and correcting it only
+    // adds noise and a meaningless dissipation tally.
+    int touching[kMaxBodies];
+    int contactCount = 0;
+    if (contact && count > 1) {
+      double mt = 0;
+      for (int k = 0; k < count; ++k) mt += m[ids[k]];
+      for (int k = 0; k < count; ++k)
+        if (m[ids[k]] >= kContactMassFraction * mt) touching[contactCount++] = ids[k];
+    }
+    if (contactCount > 1) {
+      Vec<D> total = Vec<D>::Zero();
+      for (int k = 0; k < contactCount; ++k) total += massGradient_[touching[k] * N + n];
+      // sum_p m_p grad N_I(x_p) points from a body towards the node, i.e. along the body's outward normal at its
+      // surface. Body b's normal uses its own gradient minus the others', so two bodies get opposite normals.
+      for (int k = 0; k < contactCount; ++k) {
+        const int b = touching[k];
+        const Vec<D> g = 2.0 * massGradient_[b * N + n] - total;
+        const double len = g.norm();
+        normal[b] = len > 0 ? Vec<D>(g / len) : Vec<D>::Zero();
+      }
+      Vec<D> before[kMaxBodies];
+      for (int k = 0; k < contactCount; ++k) before[touching[k]] = v[touching[k]];
+      correctContact<D>(v, m, normal, touching, contactCount, mu);
+      if (integrate)
+        for (int k = 0; k < contactCount; ++k)
+          contactDelta_[touching[k] * N + n] = v[touching[k]] - before[touching[k]];
+    }
+    if (anyBoundary) {
+      int index[D];
+      long rest = n;
+      for (int a = 0; a < D; ++a) {
+        index[a] = static_cast<int>(rest % nodes_[a]);
+        rest /= nodes_[a];
+      }
+      for (int k = 0; k < count; ++k) {
+        const int b = ids[k];
+        const double cn = integrate ? 2.0 * bodyWaveSpeed_[b] * dt / h : 0.0;
+        const double cs = integrate ? 2.0 * bodyShearSpeed_[b] * dt / h : 0.0;
+        const Vec<D> dashpot = applyFaceConditions<D>(v[b], spec_.boundary, index, nodes_, cn, cs);
+        if (integrate && trackBoundary_) boundaryDelta_[b * N + n] = dashpot;
+      }
+    }
+    for (int k = 0; k < count; ++k) {
+      const int b = ids[k];
+      const long i = b * N + n;
+      if (integrate) velocityChange_[i] = v[b] - velocityChange_[i];
+      velocity_[i] = v[b];
+    }
+  }
+}
+
+template <int D>
+void Solver<D>::integrateGrid() {
+  applyVelocityConditions(true);
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// Stage 4: grid to particles.
+template <int D>
+void Solver<D>::gridToParticles() {
+  const int ns = stencilSize(options_.shapeFunction);
+  const double dt = dt_;
+  const double flip = options_.flipFraction;
+  const long N = static_cast<long>(nodeCount_);
+  const long count = static_cast<long>(activeCount_);
+  const bool axisymmetric = D == 2 && options_.axisymmetric;
+  const bool contact = bodies_ > 1, boundary = trackBoundary_;
+  double contactSum = 0, boundarySum = 0;
+#pragma omp parallel for schedule(static) reduction(+ : contactSum, boundarySum) num_threads(threads_) if (parallel_)
+  for (long k = 0; k < count; ++k) {
+    const int p = order_[static_cast<std::size_t>(k)];
+    const long off = bodies_ > 1 ? particles_.body[p] * N : 0;
+    Vec<D> vGrid = Vec<D>::Zero(), dv = Vec<D>::Zero(), dContact = Vec<D>::Zero(), dBoundary = Vec<D>::Zero();
+    forEachNode<D>(stencil_[p], strides_, ns, [&](long node, double w, const Vec<D>&) {
+      vGrid += w * velocity_[off + node];
+      dv += w * velocityChange_[off + node];
+      if (contact) dContact += w * contactDelta_[off + node];
+      if (boundary) dBoundary += w * boundaryDelta_[off + node];
+    });
+    Vec<D>& v = particles_.velocity[p];
+    v = flip * (v + dv) + (1.0 - flip) * vGrid;
+    // The contact correction and the dashpots shift the new velocity by dContact and dBoundary; the kinetic
+    // energy they took from this particle is what it would have had without them, less what it has.
+    const double m = particles_.mass[p];
+    if (contact) contactSum += 0.5 * m * ((v - dContact).squaredNorm() - v.squaredNorm());
+    if (boundary) boundarySum += 0.5 * m * ((v - dBoundary).squaredNorm() - v.squaredNorm());
+    Vec<D>& x = particles_.position[p];
+    x += dt * vGrid;
+    if (axisymmetric && x[0] < 0) x[0] = -x[0];  // a point crossing the axis reappears on the other side
+  }
+  contactDissipation_ += contactSum;
+  boundaryWork_ += boundarySum;
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// Stage 5 (MUSL): map the updated momenta back to the grid.
+template <int D>
+void Solver<D>::remapMomentum() {
+  const std::size_t fields = mass_.size();
+#pragma omp parallel for schedule(static) num_threads(threads_) if (parallel_)
+  for (long i = 0; i < static_cast<long>(fields); ++i) momentum_[i].setZero();
+  const int ns = stencilSize(options_.shapeFunction);
+  scatterByColour([&](int p) {
+    const long off = bodies_ > 1 ? static_cast<long>(particles_.body[p]) * static_cast<long>(nodeCount_) : 0;
+    const Vec<D> mv = particles_.mass[p] * particles_.velocity[p];
+    forEachNode<D>(stencil_[p], strides_, ns,
+                   [&](long node, double w, const Vec<D>&) { momentum_[off + node] += w * mv; });
+  });
+  applyVelocityConditions(false);
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// Stage 6: strain increment and constitutive update; the next time step.
+template <int D>
+void Solver<D>::updateStress() {
+  const int ns = stencilSize(options_.shapeFunction);
+  const double dt = dt_;
+  const double h = spec_.cellSize;
+  const long N = static_cast<long>(nodeCount_);
+  const long count = static_cast<long>(activeCount_);
+  const bool hoop = D == 2 && options_.axisymmetric;
+  const BulkViscosity visc = options_.viscosity;
+  double dtMin = std::numeric_limits<double>::infinity();
+#pragma omp parallel for schedule(static) reduction(min : dtMin) num_threads(threads_) if (parallel_)
+  for (long k = 0; k < count; ++k) {
+    const int p = order_[static_cast<std::size_t>(k)];
+    const long off = bodies_ > 1 ? particles_.body[p] * N : 0;
+    Mat3 L = Mat3::Zero();
+    double vr = 0;
+    forEachNode<D>(stencil_[p], strides_, ns, [&](long node, double w, const Vec<D>& g) {
+      const Vec<D>& v = velocity_[off + node];
+      L.template topLeftCorner<D, D>().noalias() += v * g.transpose();
+      if constexpr (D == 2) vr += w * v[0];
+    });
+    if (hoop) L(2, 2) = vr / particles_.position[p][0];
+
+    Mat3& F = particles_.deformationGradient[p];
+    F = (Mat3::Identity() + dt * L) * F;
+    const double J = F.determinant();
+    const double V = particles_.initialVolume[p] * J;
+    particles_.volume[p] = V;
+    const double rho = particles_.mass[p] / V;
+    const Mat3 Dm = 0.5 * (L + L.transpose());
+    const Mat3 W = 0.5 * (L - L.transpose());
+    const double trD = Dm.trace();
+    const double c = particles_.soundSpeed[p];
+    const double q = trD < 0 ? rho * h * (visc.quadratic * h * trD * trD - visc.linear * c * trD) : 0.0;
+
+    const SolidMaterial& mat = materials_[particles_.material[p]];
+    PointState s;
+    s.stress = particles_.stress[p];
+    s.density = rho;
+    s.specificEnergy = particles_.specificEnergy[p];
+    s.temperature = particles_.temperature[p];
+    s.plasticStrain = particles_.plasticStrain[p];
+    s.damage = particles_.damage[p];
+    s.failed = particles_.failed[p] != 0;
+    s.deformationGradient = F;
+    const PointUpdate u = mat.update(s, Dm, W, dt, q);
+    particles_.stress[p] = s.stress;
+    particles_.specificEnergy[p] = s.specificEnergy;
+    particles_.temperature[p] = s.temperature;
+    particles_.plasticStrain[p] = s.plasticStrain;
+    particles_.damage[p] = s.damage;
+    particles_.failed[p] = s.failed ? 1 : 0;
+    particles_.viscousPressure[p] = q;
+    particles_.plasticWork[p] += u.plasticWorkDensity * V;
+    particles_.viscousWork[p] += -q * trD * dt * V;
+    particles_.soundSpeed[p] = u.soundSpeed;
+    // Seed 001 Eq. 8; the viscosity stiffens the step like an extra sound speed.
+    const double cEff = u.soundSpeed + (q > 0 ? 2.0 * visc.quadratic * h * std::fabs(trD) : 0.0);
+    dtMin = std::min(dtMin, h / (cEff + particles_.velocity[p].norm()));
+  }
+  time_ += dt_;
+  ++steps_;
+  if (std::isfinite(dtMin) && dtMin > 0) dt_ = options_.timeStepSafety * dtMin;
+}
+
+// ---------------------------------------------------------------------------------------------------------
+template <int D>
+EnergyBalance Solver<D>::energies() const {
+  EnergyBalance e;
+  double ke = 0, ie = 0, pw = 0, vw = 0;
+  const long n = static_cast<long>(particles_.size());
+#pragma omp parallel for schedule(static) reduction(+ : ke, ie, pw, vw) num_threads(threads_) if (parallel_)
+  for (long p = 0; p < n; ++p) {
+    ke += 0.5 * particles_.mass[p] * particles_.velocity[p].squaredNorm();
+    ie += particles_.mass[p] * particles_.specificEnergy[p];
+    pw += particles_.plasticWork[p];
+    vw += particles_.viscousWork[p];
+  }
+  e.kinetic = ke;
+  e.internal = ie;
+  e.plasticWork = pw;
+  e.viscousWork = vw;
+  e.contactDissipation = contactDissipation_;
+  e.boundaryWork = boundaryWork_;
+  return e;
+}
+
+template <int D>
+long Solver<D>::firstNonFiniteParticle() const {
+  for (std::size_t p = 0; p < particles_.size(); ++p) {
+    if (!particles_.position[p].allFinite() || !particles_.velocity[p].allFinite() ||
+        !particles_.stress[p].allFinite())
+      return static_cast<long>(p);
+  }
+  return -1;
+}
+
+template <int D>
+std::size_t Solver<D>::memoryBytes() const {
+  const std::size_t grid = mass_.capacity() * sizeof(double) +
+                           (momentum_.capacity() + force_.capacity() + velocity_.capacity() +
+                            velocityChange_.capacity() + massGradient_.capacity()) *
+                               sizeof(Vec<D>);
+  const std::size_t caches = stencil_.capacity() * sizeof(Stencil<D>) +
+                             (slabOf_.capacity() + order_.capacity() + slabStart_.capacity() + cursor_.capacity()) *
+                                 sizeof(int);
+  return particles_.bytes() + grid + caches;
+}
+
+template class Solver<2>;
+template class Solver<3>;
+
+}  // namespace blt::sim

@@ -1,0 +1,365 @@
+// Constitutive models of the MPM solver (libsim/include/blt/sim/constitutive.hpp): principal values, the
+// Mie-Grueneisen EOS, Johnson-Cook strength, the radial return (elastic, perfectly plastic, linear hardening),
+// adiabatic heating, the failure models, and the factory on the material library. Every check compares with an
+// independent number: a closed form written out here, named in the comment above it.
+#include <doctest/doctest.h>
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "approx.hpp"
+#include "blt/core/error.hpp"
+#include "blt/core/materials.hpp"
+#include "blt/sim/constitutive.hpp"
+
+using namespace blt;
+using namespace blt::sim;
+
+namespace {
+
+const Mat3 kZero = Mat3::Zero();
+
+SolidMaterial fromCard(const std::string& text, const std::string& id) {
+  return makeSolidMaterial(parseMaterial(text, id + ".toml (test card)", id));
+}
+
+// A card with E = 70 GPa, nu = 0.3 and the given strength and failure sections; no [eos], so p = K mu.
+std::string card(const std::string& strength, const std::string& failure = "") {
+  return "name = \"test solid\"\nsource = \"unit test\"\ndensity = \"2700 kg/m3\"\n"
+         "[elastic]\nyoungs_modulus = \"70 GPa\"\npoisson_ratio = 0.3\n"
+         "[strength]\n" + strength + "\n" + failure;
+}
+constexpr double kE = 70e9, kNu = 0.3, kRho0 = 2700.0;
+const double kK = kE / (3.0 * (1.0 - 2.0 * kNu));  // bulk modulus from E, nu
+const double kG = kE / (2.0 * (1.0 + kNu));        // shear modulus from E, nu
+
+PointState freshState(const SolidMaterial& m, double temperature = 293.0) {
+  PointState s;
+  s.density = m.density;
+  s.temperature = temperature;
+  return s;
+}
+
+double vonMises(const Mat3& stress) {
+  const Mat3 dev = stress - stress.trace() / 3.0 * Mat3::Identity();
+  return std::sqrt(1.5 * dev.cwiseProduct(dev).sum());
+}
+
+Mat3 pureShear(double g) {
+  Mat3 d = Mat3::Zero();
+  d(0, 1) = d(1, 0) = g;
+  return d;
+}
+
+Mat3 rotation() {
+  return Eigen::AngleAxisd(0.7, Eigen::Vector3d(1.0, -2.0, 0.5).normalized()).toRotationMatrix();
+}
+
+}  // namespace
+
+TEST_SUITE("constitutive") {
+
+TEST_CASE("principalValues: diagonal and rotated diagonal matrices") {
+  // Diagonal: the principal values are the diagonal, sorted largest first.
+  const Eigen::Vector3d d = principalValues(Eigen::Vector3d(1.0e8, 5.0e8, -2.0e8).asDiagonal().toDenseMatrix());
+  CHECK(d(0) == 5.0e8);
+  CHECK(d(1) == 1.0e8);
+  CHECK(d(2) == -2.0e8);
+
+  // R diag(a, b, c) R^T has the eigenvalues a, b, c for any rotation R (similarity transform).
+  const Mat3 R = rotation();
+  const std::vector<Eigen::Vector3d> cases = {
+      {3.0e8, -1.0e8, 5.0e7}, {-4.0e8, 2.5e8, 2.5e8} /* double root */, {1.0, 2.0, 3.0}, {-7e9, -7.5e9, -6e9}};
+  for (const Eigen::Vector3d& abc : cases) {
+    const Mat3 a = R * abc.asDiagonal() * R.transpose();
+    Eigen::Vector3d expected = abc;
+    std::sort(expected.data(), expected.data() + 3, std::greater<>());
+    const Eigen::Vector3d got = principalValues(a);
+    INFO("a, b, c = " << abc.transpose());
+    for (int i = 0; i < 3; ++i) CHECK(std::fabs(got(i) - expected(i)) <= 1e-9 * expected.cwiseAbs().maxCoeff());
+  }
+}
+
+TEST_CASE("MieGrueneisen: p = rho0 Us up on the Hugoniot, bulk modulus rho0 c0^2") {
+  // OFHC copper (Marsh 1980): rho0 = 8960 kg/m3, c0 = 3940 m/s, s = 1.489, gamma0 = 2.02.
+  const double rho0 = 8960, c0 = 3940, s = 1.489, gamma0 = 2.02;
+  const MieGrueneisen eos(rho0, c0, s, gamma0);
+  for (double mu : {1e-4, 0.01, 0.05, 0.1, 0.2, 0.35, 0.5}) {
+    // Rankine-Hugoniot with the linear Us-up fit: eta = 1 - rho0/rho, Us = c0 / (1 - s eta), up = eta Us,
+    // pH = rho0 Us up; the energy on the Hugoniot per reference volume is pH mu / (2 (1 + mu)).
+    const double eta = mu / (1.0 + mu);
+    const double us = c0 / (1.0 - s * eta);
+    const double up = eta * us;
+    const double pH = rho0 * us * up;
+    const double E = pH * mu / (2.0 * (1.0 + mu));
+    INFO("mu = " << mu);
+    CHECK(eos.hugoniotPressure(mu) == relApprox(pH, 1e-12));
+    CHECK(eos.pressure(mu, E) == relApprox(pH, 1e-12));
+  }
+  // Acoustic limit: K = rho0 c0^2.
+  CHECK(eos.bulkModulus(0.0, 0.0) == relApprox(rho0 * c0 * c0, 1e-6));
+  const MieGrueneisen al(2770, 5328, 1.11, 2.0);  // 2A12, seed 000 Table 3
+  CHECK(al.bulkModulus(0.0, 0.0) == relApprox(2770 * 5328.0 * 5328.0, 1e-6));
+}
+
+TEST_CASE("JohnsonCookStrength: 2A12 card against the formula; melt and low rate") {
+  const SolidMaterial m = makeSolidMaterial(MaterialLibrary::load().get("al_2a12"));
+  REQUIRE(m.johnsonCook);
+  const JohnsonCookStrength& jc = *m.johnsonCook;
+  // Seed 000 Table 3: A = 265 MPa, B = 426 MPa, n = 0.34, C = 0.015, m = 1, T_m = 900 K; card: rate0 = 1/s,
+  // T_room = 293 K. sigma = (A + B ep^n)(1 + C ln(rate/rate0))(1 - T*^m), T* = (T - T_room)/(T_m - T_room).
+  const double A = 265e6, B = 426e6, n = 0.34, C = 0.015, mm = 1.0, Tr = 293, Tm = 900;
+  const double ep = 0.1, rate = 1000, T = 400;
+  const double byHand = (A + B * std::pow(ep, n)) * (1 + C * std::log(rate / 1.0)) *
+                        (1 - std::pow((T - Tr) / (Tm - Tr), mm));
+  CHECK(jc.yieldStress(ep, rate, T) == relApprox(byHand, 1e-12));
+  CHECK(jc.homologousTemperature(T) == relApprox((T - Tr) / (Tm - Tr), 1e-12));
+  // d sigma / d ep = B n ep^(n-1) times the rate and thermal factors.
+  CHECK(jc.hardening(ep, rate, T) == relApprox(B * n * std::pow(ep, n - 1) * (1 + C * std::log(rate)) *
+                                                   (1 - (T - Tr) / (Tm - Tr)), 1e-12));
+  // At and above melting: no strength.
+  CHECK(jc.yieldStress(ep, rate, Tm) == 0.0);
+  CHECK(jc.yieldStress(ep, rate, 1500.0) == 0.0);
+  // Below the reference rate the rate factor is 1 (the ln term is not allowed to soften); room temperature and
+  // below: thermal factor 1.
+  CHECK(jc.yieldStress(ep, 1e-3, Tr) == relApprox(A + B * std::pow(ep, n), 1e-12));
+  CHECK(jc.yieldStress(ep, 0.0, 250.0) == relApprox(A + B * std::pow(ep, n), 1e-12));
+  CHECK(jc.yieldStress(0.0, 0.5, Tr) == relApprox(A, 1e-12));
+
+  // Modified Johnson-Cook (seed 003 Eq. 18), Q235 card: (A + B ep^n)(1 + rate/rate0)^C (1 - T*^m),
+  // A = 229 MPa, B = 439 MPa, n = 0.503, C = 0.1, m = 0.55, rate0 = 1.1e-3 1/s, T_room = 300 K, T_m = 1795 K.
+  const SolidMaterial q = makeSolidMaterial(MaterialLibrary::load().get("q235"));
+  REQUIRE(q.johnsonCook);
+  const double qHand = (229e6 + 439e6 * std::pow(0.05, 0.503)) * std::pow(1 + 10.0 / 1.1e-3, 0.1) *
+                       (1 - std::pow((500.0 - 300.0) / (1795.0 - 300.0), 0.55));
+  CHECK(q.johnsonCook->yieldStress(0.05, 10.0, 500.0) == relApprox(qHand, 1e-12));
+}
+
+TEST_CASE("SolidMaterial::update: one elastic step of uniaxial strain") {
+  const SolidMaterial m = fromCard(card("model = \"elastic\""), "elastic_test");
+  CHECK(m.shearModulus == relApprox(kG, 1e-12));
+  CHECK(m.bulkModulus == relApprox(kK, 1e-12));
+  // Linear elasticity in uniaxial strain eps: sigma_xx = (K + 4G/3) eps, sigma_yy = sigma_zz = (K - 2G/3) eps.
+  const double rate = 100.0, dt = 1e-9, eps = rate * dt;
+  PointState s = freshState(m);
+  s.density = kRho0 / (1.0 + eps);  // mass conservation over the step
+  Mat3 D = Mat3::Zero();
+  D(0, 0) = rate;
+  const PointUpdate u = m.update(s, D, kZero, dt, 0.0);
+  CHECK(s.stress(0, 0) == relApprox((kK + 4.0 * kG / 3.0) * eps, 1e-6));
+  CHECK(s.stress(1, 1) == relApprox((kK - 2.0 * kG / 3.0) * eps, 1e-6));
+  CHECK(s.stress(2, 2) == relApprox((kK - 2.0 * kG / 3.0) * eps, 1e-6));
+  CHECK(std::fabs(s.stress(0, 1)) + std::fabs(s.stress(0, 2)) + std::fabs(s.stress(1, 2)) == 0.0);
+  CHECK(s.plasticStrain == 0.0);
+  CHECK(u.plasticWorkDensity == 0.0);
+  // Longitudinal wave speed sqrt((K + 4G/3) / rho).
+  CHECK(u.soundSpeed == relApprox(std::sqrt((kK + 4.0 * kG / 3.0) / s.density), 1e-6));
+  CHECK(m.referenceWaveSpeed() == relApprox(std::sqrt((kK + 4.0 * kG / 3.0) / kRho0), 1e-12));
+}
+
+TEST_CASE("radial return, perfect plasticity: pure shear stays on the yield surface") {
+  const double Y = 300e6;
+  const SolidMaterial m =
+      fromCard(card("model = \"bilinear\"\nyield_stress = \"300 MPa\"\ntangent_modulus = \"0 MPa\""), "perfect");
+  const double g = 1e3, dt = 1e-7;  // shear strain per step g dt = 1e-4
+  const Mat3 D = pureShear(g);
+  // Pure shear D_xy = g: equivalent strain rate sqrt(2/3 D:D) = 2 g / sqrt(3); once on the yield surface the
+  // whole deviatoric increment is plastic, so d ep = 2 g dt / sqrt(3) per step.
+  const double depExpected = 2.0 * g * dt / std::sqrt(3.0);
+  PointState s = freshState(m);
+  int elasticSteps = 0, plasticSteps = 0;
+  for (int i = 0; i < 100; ++i) {
+    const double before = s.plasticStrain;
+    const PointUpdate u = m.update(s, D, kZero, dt, 0.0);
+    if (s.plasticStrain == 0) {
+      ++elasticSteps;
+      // Elastic: sigma_xy = 2 G gamma_xy/2 = 2 G g t.
+      CHECK(s.stress(0, 1) == relApprox(2.0 * kG * g * dt * (i + 1), 1e-12));
+      continue;
+    }
+    CHECK(vonMises(s.stress) == relApprox(Y, 1e-9));
+    CHECK(u.plasticWorkDensity == relApprox(Y * (s.plasticStrain - before), 1e-12));
+    if (before > 0) {
+      ++plasticSteps;
+      CHECK(s.plasticStrain - before == relApprox(depExpected, 1e-9));
+    }
+  }
+  // Yield at sqrt(3) sigma_xy = Y, i.e. after Y / (sqrt(3) 2 G g dt) = 32.2 steps.
+  CHECK(elasticSteps == static_cast<int>(Y / (std::sqrt(3.0) * 2.0 * kG * g * dt)));
+  CHECK(plasticSteps > 50);
+  CHECK(std::fabs(s.stress.trace()) <= 1e-9 * Y);  // no pressure in pure shear without an EOS energy term
+}
+
+TEST_CASE("radial return, bilinear hardening: von Mises = sigma_y0 + H ep") {
+  const double Y0 = 300e6, Et = 7e9;
+  const SolidMaterial m =
+      fromCard(card("model = \"bilinear\"\nyield_stress = \"300 MPa\"\ntangent_modulus = \"7 GPa\""), "bilinear");
+  // Plastic modulus from the tangent modulus of the uniaxial curve: H = E Et / (E - Et).
+  const double H = kE * Et / (kE - Et);
+  const Mat3 D = pureShear(1e3);
+  PointState s = freshState(m);
+  int plasticSteps = 0;
+  for (int i = 0; i < 400 && s.plasticStrain < 0.02; ++i) {
+    m.update(s, D, kZero, 1e-7, 0.0);
+    if (s.plasticStrain > 0) {
+      ++plasticSteps;
+      CHECK(vonMises(s.stress) == relApprox(Y0 + H * s.plasticStrain, 1e-9));
+    }
+  }
+  CHECK(plasticSteps > 100);
+  CHECK(s.plasticStrain >= 0.02);
+}
+
+TEST_CASE("Johnson-Cook adiabatic heating: dT = chi W_p / (rho cp)") {
+  const Material cardCu = MaterialLibrary::load().get("cu_ofhc");
+  const SolidMaterial m = makeSolidMaterial(cardCu);
+  REQUIRE(m.johnsonCook);
+  CHECK(m.specificHeat == relApprox(383.0, 1e-12));  // Johnson and Cook 1983 Table 1
+  CHECK(m.taylorQuinney == relApprox(0.9, 1e-12));
+  CHECK(m.roomTemperature == relApprox(294.0, 1e-12));
+  const double T0 = 294.0;
+  PointState s = freshState(m, T0);
+  const Mat3 D = pureShear(1e3);
+  double work = 0;  // J/m^3
+  for (int i = 0; i < 300; ++i) work += m.update(s, D, kZero, 1e-7, 0.0).plasticWorkDensity;
+  REQUIRE(s.plasticStrain > 0.02);
+  // Taylor-Quinney: a fraction chi = 0.9 of the plastic work heats the point, dT = chi W_p / (rho cp); pure shear
+  // keeps the density at rho0 = 8960 kg/m3.
+  CHECK(s.temperature - T0 == relApprox(0.9 * work / (8960.0 * 383.0), 1e-10));
+  // The plastic work lies between the initial and the final flow stress times the plastic strain.
+  const double rate = 2.0 * 1e3 / std::sqrt(3.0);
+  CHECK(work > m.johnsonCook->yieldStress(0.0, rate, s.temperature) * s.plasticStrain);
+  CHECK(work < m.johnsonCook->yieldStress(s.plasticStrain, rate, T0) * s.plasticStrain);
+}
+
+TEST_CASE("failure: max principal stress; a failed point carries compression only") {
+  const SolidMaterial m = fromCard(
+      card("model = \"elastic\"", "[failure]\nmodel = \"max-principal-stress\"\nmax_principal_stress = \"100 MPa\""),
+      "mps");
+  // Uniaxial strain eps with p = K mu, mu = -eps: the largest principal stress is (K + 4G/3) eps.
+  const double M = kK + 4.0 * kG / 3.0;
+  const auto stretchStep = [&](PointState& s, double eps) {
+    s.density = kRho0 * (1.0 - eps);
+    Mat3 D = Mat3::Zero();
+    D(0, 0) = eps / 1e-8;
+    m.update(s, D, kZero, 1e-8, 0.0);
+  };
+  PointState below = freshState(m);
+  stretchStep(below, 0.98 * 100e6 / M);
+  CHECK_FALSE(below.failed);
+  CHECK(principalValues(below.stress)(0) == relApprox(0.98 * 100e6, 1e-9));
+
+  PointState s = freshState(m);
+  stretchStep(s, 1.02 * 100e6 / M);
+  CHECK(s.failed);
+  CHECK(s.stress == kZero);  // failed in tension: no stress left
+  // Expanding further: still no stress.
+  stretchStep(s, 2e-3);
+  CHECK(s.stress == kZero);
+  // Compressing (mu = +1e-3): a pure pressure p = K mu, zero deviator.
+  s.density = kRho0 * 1.001;
+  Mat3 D = Mat3::Zero();
+  D(0, 0) = -1e5;
+  m.update(s, D, kZero, 1e-8, 0.0);
+  const double p = -s.stress.trace() / 3.0;
+  CHECK(p == relApprox(kK * 1e-3, 1e-9));
+  CHECK((s.stress + p * Mat3::Identity()).norm() <= 1e-12 * p);
+}
+
+TEST_CASE("failure: max principal strain from the deformation gradient") {
+  const SolidMaterial m = fromCard(
+      card("model = \"elastic\"", "[failure]\nmodel = \"max-principal-strain\"\nmax_principal_strain = 0.05"), "mpe");
+  // F = diag(1 + e, 1, 1): largest principal stretch 1 + e, engineering strain e; also after a rigid rotation
+  // (R F has the same stretches, (R F)(R F)^T = R F F^T R^T).
+  for (const bool rotated : {false, true}) {
+    for (const double e : {0.04, 0.049, 0.051, 0.06, -0.2}) {
+      PointState s = freshState(m);
+      s.deformationGradient = Eigen::Vector3d(1.0 + e, 1.0, 1.0).asDiagonal();
+      if (rotated) s.deformationGradient = rotation() * s.deformationGradient;
+      m.update(s, kZero, kZero, 1e-8, 0.0);
+      INFO("e = " << e << ", rotated = " << rotated);
+      CHECK(s.failed == (e > 0.05));
+    }
+  }
+}
+
+TEST_CASE("failure: Johnson-Cook damage, fracture strain and accumulation to 1") {
+  // Weldox 460E, seed 002 Table 3: D1 = 0.0705, D2 = 1.732, D3 = -0.54, D4 = -0.015, D5 = 0, rate0 = 1/s.
+  const SolidMaterial w = makeSolidMaterial(MaterialLibrary::load().get("weldox_460e"));
+  const auto jcd = std::dynamic_pointer_cast<const JohnsonCookDamage>(w.failure);
+  REQUIRE(jcd);
+  // eps_f = [D1 + D2 exp(D3 s*)][1 + D4 ln rate*][1 + D5 T*]
+  CHECK(jcd->fractureStrain(0.5, 100.0, 0.2) ==
+        relApprox((0.0705 + 1.732 * std::exp(-0.54 * 0.5)) * (1 - 0.015 * std::log(100.0)), 1e-12));
+  CHECK(jcd->fractureStrain(-0.33, 0.01, 0.0) == relApprox(0.0705 + 1.732 * std::exp(0.54 * 0.33), 1e-12));
+  JohnsonCookDamage::Parameters p;
+  p.D1 = 0.05; p.D2 = 0.4; p.D3 = -1.5; p.D4 = 0.02; p.D5 = 0.6; p.referenceRate = 2.0;
+  CHECK(JohnsonCookDamage(p).fractureStrain(1.0 / 3.0, 200.0, 0.25) ==
+        relApprox((0.05 + 0.4 * std::exp(-0.5)) * (1 + 0.02 * std::log(100.0)) * (1 + 0.6 * 0.25), 1e-12));
+
+  // Accumulation: perfectly plastic pure shear under a fixed mean tension (mu = -0.005, p = K mu) is a path of
+  // constant triaxiality s* = -p / Y, so D = ep / eps_f and the point fails when ep reaches eps_f.
+  const double Y = 300e6;
+  const SolidMaterial m = fromCard(
+      card("model = \"bilinear\"\nyield_stress = \"300 MPa\"\ntangent_modulus = \"0 MPa\"",
+           "[failure]\nmodel = \"johnson-cook-damage\"\nD1 = 0.05\nD2 = 0.4\nD3 = -1.5\nD4 = 0.02\nD5 = 0.6"),
+      "jcd");
+  const double mu = -0.005, g = 1e4, dt = 1e-7;
+  const double triax = -kK * mu / Y;
+  const double rate = 2.0 * g / std::sqrt(3.0);  // equivalent strain rate of pure shear; rate0 = 1/s by default
+  // No Johnson-Cook strength, so T* = 0 and D5 drops out.
+  const double ef = (0.05 + 0.4 * std::exp(-1.5 * triax)) * (1 + 0.02 * std::log(rate));
+  PointState s = freshState(m);
+  s.density = kRho0 * (1.0 + mu);
+  // The rate in eps_f is the plastic strain rate dep/dt (seed 000 Eq. 9), which equals the pure-shear rate once
+  // a step is plastic throughout; so each such step adds dD = dep / eps_f.
+  int steps = 0;
+  double before = 0, damageBefore = 0;
+  for (; steps < 2000 && !s.failed; ++steps) {
+    before = s.plasticStrain;
+    damageBefore = s.damage;
+    m.update(s, pureShear(g), kZero, dt, 0.0);
+    if (!s.failed && before > 0) {
+      CHECK(-(s.stress.trace() / 3.0) / vonMises(s.stress) == relApprox(-triax, 1e-9));
+      CHECK(s.damage - damageBefore == relApprox((s.plasticStrain - before) / ef, 1e-9));
+    }
+  }
+  REQUIRE(s.failed);
+  INFO("eps_f = " << ef << ", ep before = " << before << ", after = " << s.plasticStrain);
+  CHECK(damageBefore < 1.0);
+  CHECK(s.damage >= 1.0);
+  CHECK(s.plasticStrain == relApprox(ef, 2 * (s.plasticStrain - before) / ef));  // fails within a step of eps_f
+  CHECK(s.stress == kZero);  // failed under mean tension
+}
+
+TEST_CASE("makeSolidMaterial on every card of the library") {
+  const MaterialLibrary lib = MaterialLibrary::load();
+  std::set<std::string> built;
+  for (const std::string& id : lib.ids()) {
+    INFO(id);
+    try {
+      const SolidMaterial m = makeSolidMaterial(lib.get(id));
+      built.insert(id);
+      CHECK(m.density > 0);
+      CHECK(m.shearModulus > 0);
+      CHECK(m.referenceWaveSpeed() > 0);
+    } catch (const InputError& e) {
+      // Only the models the solver does not have may stop a card.
+      const std::string what = e.what();
+      INFO(what);
+      CHECK((what.find("johnson-holmquist-1") != std::string::npos || what.find("fluid") != std::string::npos ||
+             what.find("polynomial") != std::string::npos));
+    }
+  }
+  for (const char* id : {"al_2a12", "al_5a06", "outer_fabric", "mli_layer", "liner", "weldox_460e", "q235",
+                         "cu_ofhc", "steel_38crsi", "al_2024", "al_7075_t651"}) {
+    INFO(id);
+    CHECK(built.count(id) == 1);
+  }
+}
+
+}  // TEST_SUITE("constitutive")

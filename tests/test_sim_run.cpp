@@ -1,0 +1,197 @@
+// The solver's run driver, output files, contact and the `blt sim` / `blt bench` command lines (issue 4).
+#include <doctest/doctest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "approx.hpp"
+#include "blt/core/materials.hpp"
+#include "blt/sim/cases.hpp"
+#include "blt/sim/geometry.hpp"
+#include "blt/sim/run.hpp"
+#include "run_blt.hpp"
+
+using namespace blt::sim;
+namespace fs = std::filesystem;
+
+namespace {
+const char* kElastic = R"toml(name = "elastic"
+source = "test"
+density = "2700 kg/m3"
+[elastic]
+youngs_modulus = "70 GPa"
+poisson_ratio = 0.3
+[strength]
+model = "elastic"
+)toml";
+
+fs::path freshDir(const std::string& name) {
+  const fs::path dir = fs::temp_directory_path() / ("blt_test_" + name + "_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  return dir;
+}
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+// Two elastic spheres on the axis moving towards each other, one body each (multi-field contact).
+std::unique_ptr<Solver<2>> twoSpheres(double speed, SolverOptions o = {}) {
+  const double R = 5e-3, s = R / 10, h = 2 * s;
+  GridSpec<2> g;
+  g.cellSize = h;
+  g.lower = Vec<2>(0, -2 * R - 4 * h);
+  g.upper = Vec<2>(R + 4 * h, 2 * R + 4 * h);
+  g.boundary = {BoundaryKind::symmetry, BoundaryKind::free, BoundaryKind::free, BoundaryKind::free};
+  o.viscosity = {0, 0};
+  auto solver = std::make_unique<Solver<2>>(g, o, std::vector<SolidMaterial>{
+                                                      makeSolidMaterial(blt::parseMaterial(kElastic, "e", "e"))});
+  BodyFill<2> a;
+  a.spacing = s;
+  a.velocity = Vec<2>(0, -speed);
+  fillSphere<2>(solver->particles(), solver->materials()[0], a, Vec<2>(0, R + s), R);
+  BodyFill<2> b = a;
+  b.body = 1;
+  b.velocity = Vec<2>(0, speed);
+  fillSphere<2>(solver->particles(), solver->materials()[0], b, Vec<2>(0, -R - s), R);
+  solver->initialise();
+  return solver;
+}
+
+Vec<2> bodyMomentum(const Solver<2>& s, int body) {
+  Vec<2> p = Vec<2>::Zero();
+  for (std::size_t i = 0; i < s.particles().size(); ++i)
+    if (s.particles().body[i] == body) p += s.particles().mass[i] * s.particles().velocity[i];
+  return p;
+}
+}  // namespace
+
+TEST_SUITE("sim") {
+
+TEST_CASE("sim: multi-field contact keeps two colliding bodies apart, conserves momentum and lets them rebound") {
+  auto solver = twoSpheres(20.0);
+  const double p0 = bodyMomentum(*solver, 0)[1];
+  REQUIRE(p0 < 0);
+  double closest = 1e9;
+  while (solver->time() < 40e-6) {
+    solver->step();
+    double lowestA = 1e9, highestB = -1e9;
+    const auto& P = solver->particles();
+    for (std::size_t i = 0; i < P.size(); ++i) {
+      if (P.body[i] == 0) lowestA = std::min(lowestA, P.position[i][1]);
+      else highestB = std::max(highestB, P.position[i][1]);
+    }
+    closest = std::min(closest, lowestA - highestB);
+    // Newton's third law at the contact nodes: the total axial momentum stays zero.
+    CHECK(std::fabs(bodyMomentum(*solver, 0)[1] + bodyMomentum(*solver, 1)[1]) < 1e-9 * std::fabs(p0));
+  }
+  CHECK(closest > 0);  // particle centres of the two bodies never cross
+  // Both bodies have turned round (elastic rebound): the upper one now moves up.
+  CHECK(bodyMomentum(*solver, 0)[1] > 0.5 * std::fabs(p0));
+}
+
+TEST_CASE("sim: without contact correction the single-field mode makes the bodies one") {
+  SolverOptions o;
+  o.contact.mode = ContactMode::singleField;
+  auto solver = twoSpheres(20.0, o);
+  CHECK(solver->bodyCount() == 1);
+}
+
+TEST_CASE("sim: a run writes a ParaView series, an energy history and a summary") {
+  const auto dir = freshDir("run");
+  const auto copper = blt::MaterialLibrary::load().get("cu_ofhc");
+  TaylorBarCase c;
+  c.particlesPerDiameter = 6;
+  auto solver = makeTaylorBarAxisymmetric(c, copper);
+  RunOptions ro;
+  ro.endTime = 10e-6;
+  ro.outputDirectory = dir.string();
+  ro.name = "bar";
+  ro.frames = 2;
+  ro.energySamples = 10;
+  const RunResult r = run<2>(*solver, ro);
+  CHECK(std::string(toString(r.status)) == "completed");
+  CHECK(fs::exists(dir / "bar.pvd"));
+  CHECK(fs::exists(dir / "bar_0000.vtu"));
+  CHECK(fs::exists(dir / "bar_0002.vtu"));
+  const std::string pvd = slurp(dir / "bar.pvd");
+  CHECK(pvd.find("bar_0002.vtu") != std::string::npos);
+  const std::string vtu = slurp(dir / "bar_0000.vtu");
+  for (const char* field : {"velocity_m_s", "stress_Pa", "pressure_Pa", "specific_energy_J_kg", "temperature_K",
+                            "plastic_strain", "damage", "material", "body"})
+    CHECK_MESSAGE(vtu.find(std::string("Name=\"") + field + "\"") != std::string::npos, std::string(field));
+  const std::string csv = slurp(dir / "bar_energy.csv");
+  CHECK(csv.rfind("step,time_s,time_step_s,kinetic_J,internal_J,plastic_work_J,viscous_work_J,", 0) == 0);
+  CHECK(std::count(csv.begin(), csv.end(), '\n') >= 11);
+  const auto summary = nlohmann::json::parse(slurp(dir / "bar_summary.json"));
+  CHECK(summary["status"] == "completed");
+  CHECK(summary["solver"]["shape_function"] == "uGIMP");
+  CHECK(summary["solver"]["update_scheme"] == "MUSL");
+  CHECK(summary["geometry"] == "axisymmetric");
+  fs::remove_all(dir);
+}
+
+TEST_CASE("sim: an unstable run stops with where and when, and keeps what it wrote") {
+  const auto dir = freshDir("unstable");
+  SolverOptions o;
+  o.timeStepSafety = 2.5;  // far past the Courant limit of seed 001 Eq. 8
+  o.viscosity = {0, 0};
+  auto solver = twoSpheres(20.0, o);
+  RunOptions ro;
+  ro.endTime = 200e-6;
+  ro.outputDirectory = dir.string();
+  ro.name = "blowup";
+  ro.energySamples = 2000;
+  const RunResult r = run<2>(*solver, ro);
+  CHECK(std::string(toString(r.status)) == "unstable");
+  CHECK(r.message.find("unstable at step") != std::string::npos);
+  CHECK(r.message.find(" us") != std::string::npos);
+  CHECK(r.time < ro.endTime);
+  CHECK(fs::exists(dir / "blowup_energy.csv"));
+  CHECK(fs::exists(dir / "blowup.pvd"));
+  const auto summary = nlohmann::json::parse(slurp(dir / "blowup_summary.json"));
+  CHECK(summary["status"] == "unstable");
+  CHECK(summary["message"] == r.message);
+  fs::remove_all(dir);
+}
+
+TEST_CASE("sim: the time step follows seed 001 Eq. 8, safety x cell / (c + |v|)") {
+  const auto copper = blt::MaterialLibrary::load().get("cu_ofhc");
+  TaylorBarCase c;
+  c.particlesPerDiameter = 8;
+  SolverOptions o;
+  o.timeStepSafety = 0.25;
+  auto solver = makeTaylorBarAxisymmetric(c, copper, o);
+  const SolidMaterial m = makeSolidMaterial(copper);
+  const double h = 2 * c.diameter / c.particlesPerDiameter;
+  CHECK(solver->timeStep() == relApprox(0.25 * h / (m.referenceWaveSpeed() + c.velocity), 1e-12));
+}
+
+TEST_CASE("sim: blt sim example taylor-bar writes its files and reports the shape") {
+  const auto dir = freshDir("cli");
+  const BltRun r = runBlt("sim example taylor-bar --particles-per-diameter 6 --end-time 20us --frames 2 --json --out '" +
+                          dir.string() + "'");
+  REQUIRE(r.status == 0);
+  const auto doc = nlohmann::json::parse(r.output);
+  CHECK(doc["status"] == "completed");
+  CHECK(doc["final_length_mm"].get<double>() < 25.4);
+  CHECK(doc["measured_length_mm"].get<double>() == relApprox(16.205));
+  CHECK(fs::exists(dir / "taylor_bar.pvd"));
+  fs::remove_all(dir);
+}
+
+TEST_CASE("sim: bad CLI values are errors naming the flag") {
+  const BltRun r = runBlt("sim example taylor-bar --velocity 190 --out /tmp/never");
+  CHECK(r.status != 0);
+  CHECK(r.output.find("--velocity") != std::string::npos);
+  const BltRun t = runBlt("sim example taylor-bar --threads -1 --out /tmp/never");
+  CHECK(t.status == 2);
+  CHECK(t.output.find("--threads") != std::string::npos);
+}
+
+}  // TEST_SUITE

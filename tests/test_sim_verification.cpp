@@ -1,0 +1,209 @@
+// Verification of the MPM solver against known solutions (issue 4). Each case names its independent
+// reference. Coarse but converged where it matters, to keep CI fast; `blt bench sim` runs heavier versions.
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <vector>
+
+#include "approx.hpp"
+#include "blt/core/materials.hpp"
+#include "blt/sim/cases.hpp"
+#include "blt/sim/geometry.hpp"
+#include "blt/sim/run.hpp"
+#include "blt/sim/solver.hpp"
+
+using namespace blt::sim;
+
+namespace {
+
+blt::Material card(const std::string& text, const std::string& id) { return blt::parseMaterial(text, id, id); }
+
+// Elastic aluminium-like solid: E = 70 GPa, nu = 0.3, rho = 2700 kg/m3.
+const char* kElasticAl = R"toml(name = "elastic"
+source = "test"
+density = "2700 kg/m3"
+[elastic]
+youngs_modulus = "70 GPa"
+poisson_ratio = 0.3
+[strength]
+model = "elastic"
+)toml";
+
+// Mean of `f` over the particles whose coordinate `axis` lies in [a, b).
+template <int D, class F>
+double layerMean(const Solver<D>& s, int axis, double a, double b, F&& f) {
+  double sum = 0;
+  int n = 0;
+  const auto& P = s.particles();
+  for (std::size_t p = 0; p < P.size(); ++p)
+    if (P.position[p][axis] >= a && P.position[p][axis] < b) {
+      sum += f(p);
+      ++n;
+    }
+  return n ? sum / n : 0.0;
+}
+
+// Position along z where the particle velocity crosses half its far-field value (the wave front).
+template <int D>
+double waveFront(const Solver<D>& s, double length, double spacing, double v0) {
+  double prevZ = 0, prevV = 0;
+  for (double z = 0.5 * spacing; z < length; z += spacing) {
+    const double v = layerMean(s, D - 1, z - 0.5 * spacing, z + 0.5 * spacing,
+                               [&](std::size_t p) { return s.particles().velocity[p][D - 1]; });
+    if (z > 0.5 * spacing && (prevV - 0.5 * v0) * (v - 0.5 * v0) <= 0 && v != prevV)
+      return prevZ + (0.5 * v0 - prevV) / (v - prevV) * (z - prevZ);
+    prevZ = z;
+    prevV = v;
+  }
+  return -1;
+}
+
+}  // namespace
+
+TEST_SUITE("verification") {
+
+// A column in uniaxial strain (symmetry planes all round) moving onto a rigid wall: the stress wave runs up the
+// column at the dilatational speed c = sqrt((K + 4G/3)/rho) (analytical, elasticity).
+TEST_CASE("sim: elastic plane wave speed in a 3D column within 2 % of sqrt((K+4G/3)/rho)") {
+  const double h = 1e-3, s = 0.5e-3, L = 0.1, v0 = 1.0;
+  GridSpec<3> g;
+  g.cellSize = h;
+  g.lower = Vec<3>(0, 0, 0);
+  g.upper = Vec<3>(2 * h, 2 * h, L + 2 * h);
+  g.boundary = {BoundaryKind::symmetry, BoundaryKind::symmetry, BoundaryKind::symmetry,
+                BoundaryKind::symmetry, BoundaryKind::symmetry, BoundaryKind::free};
+  SolverOptions o;
+  o.viscosity = {0.0, 0.0};
+  Solver<3> solver(g, o, {makeSolidMaterial(card(kElasticAl, "elastic"))});
+  BodyFill<3> fill;
+  fill.spacing = s;
+  fill.velocity = Vec<3>(0, 0, -v0);
+  fillBox<3>(solver.particles(), solver.materials()[0], fill, Vec<3>(0, 0, 0), Vec<3>(2 * h, 2 * h, L));
+  solver.initialise();
+  const double E = 70e9, nu = 0.3, rho = 2700;
+  const double c = std::sqrt(E * (1 - nu) / ((1 + nu) * (1 - 2 * nu)) / rho);
+  const double t1 = 0.25 * L / c, t2 = 0.75 * L / c;
+  while (solver.time() < t1) solver.step();
+  const double z1 = waveFront(solver, L, s, -v0), time1 = solver.time();
+  while (solver.time() < t2) solver.step();
+  const double z2 = waveFront(solver, L, s, -v0), time2 = solver.time();
+  const double measured = (z2 - z1) / (time2 - time1);
+  MESSAGE("wave speed " << measured << " m/s, analytical " << c << " m/s");
+  CHECK(measured == relApprox(c, 0.02));
+}
+
+// Symmetric flyer-plate impact: aluminium (Mie-Grueneisen, seed 001's 2A12 constants c0 = 5328 m/s,
+// s = 1.338; no strength) at 1 km/s on the same material at rest. Behind the shock u_p = V/2 and the pressure is
+// the Hugoniot's rho0 (c0 + s u_p) u_p (Rankine-Hugoniot jump conditions).
+TEST_CASE("sim: symmetric flyer-plate shock pressure within 5 % of rho0 (c0 + s up) up") {
+  const char* hydro = R"toml(name = "hydrodynamic aluminium"
+source = "seed 001 Tables 1-2 (2A12 Hugoniot)"
+density = "2770 kg/m3"
+[elastic]
+shear_modulus = "0 GPa"
+[strength]
+model = "elastic"
+[eos]
+model = "mie-grueneisen"
+c0 = "5328 m/s"
+s = 1.338
+gamma0 = 2.0
+)toml";
+  const double h = 0.2e-3, s = 0.1e-3, L = 10e-3, V = 1000.0;
+  GridSpec<3> g;
+  g.cellSize = h;
+  g.lower = Vec<3>(0, 0, -L - 2 * h);
+  g.upper = Vec<3>(2 * h, 2 * h, L + 2 * h);
+  g.boundary = {BoundaryKind::symmetry, BoundaryKind::symmetry, BoundaryKind::symmetry,
+                BoundaryKind::symmetry, BoundaryKind::free, BoundaryKind::free};
+  SolverOptions o;
+  o.contact.mode = ContactMode::singleField;
+  Solver<3> solver(g, o, {makeSolidMaterial(card(hydro, "hydro"))});
+  BodyFill<3> flyer;
+  flyer.spacing = s;
+  flyer.velocity = Vec<3>(0, 0, -V);
+  fillBox<3>(solver.particles(), solver.materials()[0], flyer, Vec<3>(0, 0, 0), Vec<3>(2 * h, 2 * h, L));
+  BodyFill<3> target;
+  target.spacing = s;
+  target.body = 1;
+  fillBox<3>(solver.particles(), solver.materials()[0], target, Vec<3>(0, 0, -L), Vec<3>(2 * h, 2 * h, 0));
+  solver.initialise();
+  const double up = V / 2, rho0 = 2770, c0 = 5328, sl = 1.338;
+  const double expected = rho0 * (c0 + sl * up) * up;
+  const double us = c0 + sl * up;
+  // The shock has run 0.6 L into the target; release from the flyer's rear has not caught up.
+  const double tEnd = 0.6 * L / us;
+  while (solver.time() < tEnd) solver.step();
+  // Pressure in the shocked band between the interface and the front, away from both.
+  const double p = layerMean(solver, 2, -0.4 * L, -0.1 * L, [&](std::size_t i) {
+    return -solver.particles().stress[i].trace() / 3.0;
+  });
+  MESSAGE("shock pressure " << p / 1e9 << " GPa, Hugoniot " << expected / 1e9 << " GPa");
+  CHECK(p == relApprox(expected, 0.05));
+}
+
+// A long elastic column (uniaxial strain, plane strain with symmetry sides, no bulk viscosity) strikes a rigid
+// frictionless wall: a wall at rest does no work, so kinetic + internal energy must stay at the initial kinetic
+// energy (energy conservation) through impact, wave reflection and the return of the wave. MPM loses energy
+// where the first layer of material meets the wall (an inelastic collision of that layer's nodal mass), in
+// proportion to cell size over column length; 400 cells along the column make that loss small.
+TEST_CASE("sim: elastic impact on a rigid wall conserves energy within 1 % of the initial kinetic energy") {
+  const double h = 0.25e-3, s = 0.125e-3, L = 0.1, v0 = 5.0;
+  GridSpec<2> g;
+  g.cellSize = h;
+  g.lower = Vec<2>(0, 0);
+  g.upper = Vec<2>(h, L + 2 * h);
+  g.boundary = {BoundaryKind::symmetry, BoundaryKind::symmetry, BoundaryKind::symmetry, BoundaryKind::free};
+  SolverOptions o;
+  o.axisymmetric = false;
+  o.viscosity = {0.0, 0.0};
+  Solver<2> solver(g, o, {makeSolidMaterial(card(kElasticAl, "elastic"))});
+  BodyFill<2> fill;
+  fill.spacing = s;
+  fill.axisymmetric = false;
+  fill.velocity = Vec<2>(0, -v0);
+  fillBox<2>(solver.particles(), solver.materials()[0], fill, Vec<2>(0, 0), Vec<2>(h, L));
+  solver.initialise();
+  const EnergyBalance e0 = solver.energies();
+  const double c = std::sqrt(70e9 * 0.7 / (1.3 * 0.4) / 2700);
+  double worst = 0;
+  // Impact, the wave's run to the free end and back, and a second round trip.
+  while (solver.time() < 4 * L / c) {
+    solver.step();
+    const EnergyBalance e = solver.energies();
+    worst = std::max(worst, std::fabs(e.kinetic + e.internal - e0.kinetic));
+  }
+  MESSAGE("largest drift " << worst / e0.kinetic * 100 << " % of the initial kinetic energy over " << solver.stepCount()
+                           << " steps");
+  CHECK(worst < 0.01 * e0.kinetic);
+}
+
+// The same normal impact run as a 3D quarter model and as an axisymmetric model must give the same crater:
+// 2A12 cylinder (seed 000 Table 3) at 1.5 km/s on a 5A06 plate; penetration depth within 5 %. Single-field
+// mode: with the multi-field contact the two runs differ by about 8 % at this resolution (the contact normals of
+// the stair-stepped 3D surface differ from the axisymmetric ones), which is open work noted in issue 4.
+TEST_CASE("sim: normal impact, 3D quarter model and axisymmetric run agree on penetration depth within 5 %") {
+  const auto lib = blt::MaterialLibrary::load();
+  PlateImpactCase c;
+  c.velocity = 1500;
+  c.projectileDiameter = 4e-3;
+  c.projectileLength = 4e-3;
+  c.plateRadius = 6e-3;
+  c.plateThickness = 8e-3;
+  c.spacing = 0.4e-3;
+  SolverOptions o;
+  o.contact.mode = ContactMode::singleField;
+  auto axi = makePlateImpactAxisymmetric(c, lib.get("al_2a12"), lib.get("al_5a06"), o);
+  auto cube = makePlateImpact3d(c, lib.get("al_2a12"), lib.get("al_5a06"), o);
+  const double tEnd = 6e-6;
+  while (axi->time() < tEnd) axi->step();
+  while (cube->time() < tEnd) cube->step();
+  const double dAxi = penetrationDepth(*axi, 0.0), d3 = penetrationDepth(*cube, 0.0);
+  MESSAGE("penetration " << dAxi * 1e3 << " mm axisymmetric, " << d3 * 1e3 << " mm 3D (" << cube->particles().size()
+                         << " particles)");
+  CHECK(dAxi > 1e-3);  // a real crater, not the untouched surface
+  CHECK(d3 == relApprox(dAxi, 0.05));
+}
+
+}  // TEST_SUITE
