@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "approx.hpp"
+#include "sim_materials.hpp"
 #include "blt/core/materials.hpp"
 #include "blt/sim/cases.hpp"
 #include "blt/sim/geometry.hpp"
@@ -17,16 +18,6 @@ using namespace blt::sim;
 namespace fs = std::filesystem;
 
 namespace {
-const char* kElastic = R"toml(name = "elastic"
-source = "test"
-density = "2700 kg/m3"
-[elastic]
-youngs_modulus = "70 GPa"
-poisson_ratio = 0.3
-[strength]
-model = "elastic"
-)toml";
-
 fs::path freshDir(const std::string& name) {
   const fs::path dir = fs::temp_directory_path() / ("blt_test_" + name + "_" + std::to_string(::getpid()));
   fs::remove_all(dir);
@@ -50,7 +41,7 @@ std::unique_ptr<Solver<2>> twoSpheres(double speed, SolverOptions o = {}) {
   g.boundary = {BoundaryKind::symmetry, BoundaryKind::free, BoundaryKind::free, BoundaryKind::free};
   o.viscosity = {0, 0};
   auto solver = std::make_unique<Solver<2>>(g, o, std::vector<SolidMaterial>{
-                                                      makeSolidMaterial(blt::parseMaterial(kElastic, "e", "e"))});
+                                                      makeSolidMaterial(blt::parseMaterial(kElasticAluminium, "e", "e"))});
   BodyFill<2> a;
   a.spacing = s;
   a.velocity = Vec<2>(0, -speed);

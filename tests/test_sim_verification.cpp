@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "approx.hpp"
+#include "sim_materials.hpp"
 #include "blt/core/materials.hpp"
 #include "blt/sim/cases.hpp"
 #include "blt/sim/geometry.hpp"
@@ -18,17 +19,6 @@ using namespace blt::sim;
 namespace {
 
 blt::Material card(const std::string& text, const std::string& id) { return blt::parseMaterial(text, id, id); }
-
-// Elastic aluminium-like solid: E = 70 GPa, nu = 0.3, rho = 2700 kg/m3.
-const char* kElasticAl = R"toml(name = "elastic"
-source = "test"
-density = "2700 kg/m3"
-[elastic]
-youngs_modulus = "70 GPa"
-poisson_ratio = 0.3
-[strength]
-model = "elastic"
-)toml";
 
 // Mean of `f` over the particles whose coordinate `axis` lies in [a, b).
 template <int D, class F>
@@ -75,7 +65,7 @@ TEST_CASE("sim: elastic plane wave speed in a 3D column within 2 % of sqrt((K+4G
                 BoundaryKind::symmetry, BoundaryKind::symmetry, BoundaryKind::free};
   SolverOptions o;
   o.viscosity = {0.0, 0.0};
-  Solver<3> solver(g, o, {makeSolidMaterial(card(kElasticAl, "elastic"))});
+  Solver<3> solver(g, o, {makeSolidMaterial(card(kElasticAluminium, "elastic"))});
   BodyFill<3> fill;
   fill.spacing = s;
   fill.velocity = Vec<3>(0, 0, -v0);
@@ -158,7 +148,7 @@ TEST_CASE("sim: elastic impact on a rigid wall conserves energy within 1 % of th
   SolverOptions o;
   o.axisymmetric = false;
   o.viscosity = {0.0, 0.0};
-  Solver<2> solver(g, o, {makeSolidMaterial(card(kElasticAl, "elastic"))});
+  Solver<2> solver(g, o, {makeSolidMaterial(card(kElasticAluminium, "elastic"))});
   BodyFill<2> fill;
   fill.spacing = s;
   fill.axisymmetric = false;

@@ -92,6 +92,10 @@ double JohnsonCookStrength::hardening(double ep, double rate, double temperature
 // ---- failure ----
 
 bool MaxPrincipalStressFailure::check(const FailureInput& in, double&) const {
+  // sigma_1 <= mean + sqrt(2/3) |deviator|: most points are far from the limit and skip the eigenvalues.
+  const double mean = in.stress.trace() / 3.0;
+  const Mat3 dev = in.stress - mean * kIdentity;
+  if (mean + std::sqrt(2.0 / 3.0 * dev.squaredNorm()) <= limit_) return false;
   return principalValues(in.stress)(0) > limit_;
 }
 

@@ -69,13 +69,10 @@ void Solver<D>::initialise() {
   }
   bodies_ = options_.contact.mode == ContactMode::multiField ? maxBody + 1 : 1;
   const std::size_t fields = nodeCount_ * static_cast<std::size_t>(bodies_);
-  mass_.assign(fields, 0.0);
-  momentum_.assign(fields, Vec<D>::Zero());
-  force_.assign(fields, Vec<D>::Zero());
+  scatter_.assign(fields, ScatterNode<D>{});
   velocity_.assign(fields, Vec<D>::Zero());
   velocityChange_.assign(fields, Vec<D>::Zero());
   if (bodies_ > 1) {
-    massGradient_.assign(fields, Vec<D>::Zero());
     contactDelta_.assign(fields, Vec<D>::Zero());
   }
   trackBoundary_ = false;
@@ -185,32 +182,41 @@ void Solver<D>::computeShapeFunctions() {
     if (slabOf_[p] >= 0) order_[static_cast<std::size_t>(cursor[slabOf_[p]]++)] = static_cast<int>(p);
 }
 
-// Calls f(nodeOffset, w, grad) for every node of particle p's stencil.
-template <int D, class F>
-inline void forEachNode(const Stencil<D>& st, const Eigen::Array<long, D, 1>& strides, int ns, F&& f) {
+// Calls f(nodeOffset, w, grad) for every node of particle p's stencil; NS nodes per axis, known at compile
+// time so that the loops unroll.
+template <int D, int NS, class F>
+inline void forEachNodeOf(const Stencil<D>& st, const Eigen::Array<long, D, 1>& strides, F&& f) {
   if constexpr (D == 3) {
-    for (int c = 0; c < ns; ++c)
-      for (int b = 0; b < ns; ++b) {
+    for (int c = 0; c < NS; ++c)
+      for (int b = 0; b < NS; ++b) {
         const long row = st.node + c * strides[2] + b * strides[1];
         const double wyz = st.w[1][b] * st.w[2][c];
         const double gyz = st.g[1][b] * st.w[2][c];
         const double wygz = st.w[1][b] * st.g[2][c];
-        for (int a = 0; a < ns; ++a) {
+        for (int a = 0; a < NS; ++a) {
           const double w = st.w[0][a] * wyz;
           const Vec<3> g(st.g[0][a] * wyz, st.w[0][a] * gyz, st.w[0][a] * wygz);
           f(row + a, w, g);
         }
       }
   } else {
-    for (int b = 0; b < ns; ++b) {
+    for (int b = 0; b < NS; ++b) {
       const long row = st.node + b * strides[1];
-      for (int a = 0; a < ns; ++a) {
+      for (int a = 0; a < NS; ++a) {
         const double w = st.w[0][a] * st.w[1][b];
         const Vec<2> g(st.g[0][a] * st.w[1][b], st.w[0][a] * st.g[1][b]);
         f(row + a, w, g);
       }
     }
   }
+}
+
+template <int D, class F>
+inline void forEachNode(const Stencil<D>& st, const Eigen::Array<long, D, 1>& strides, int ns, F&& f) {
+  if (ns == 3)
+    forEachNodeOf<D, 3>(st, strides, f);
+  else
+    forEachNodeOf<D, 2>(st, strides, f);
 }
 
 // Runs body(p) for every active particle, slab parity by parity, so that scatters from concurrent threads
@@ -230,13 +236,10 @@ void Solver<D>::scatterByColour(F&& body) {
 // Stage 2: particles to grid.
 template <int D>
 void Solver<D>::particlesToGrid() {
-  const std::size_t fields = mass_.size();
+  const std::size_t fields = scatter_.size();
 #pragma omp parallel for schedule(static) num_threads(threads_) if (parallel_)
   for (long i = 0; i < static_cast<long>(fields); ++i) {
-    mass_[i] = 0.0;
-    momentum_[i].setZero();
-    force_[i].setZero();
-    if (bodies_ > 1) massGradient_[i].setZero();
+    scatter_[i] = ScatterNode<D>{};
   }
   const int ns = stencilSize(options_.shapeFunction);
   const bool hoop = D == 2 && options_.axisymmetric;
@@ -248,16 +251,16 @@ void Solver<D>::particlesToGrid() {
     const double V = particles_.volume[p];
     Mat3 sig = particles_.stress[p];
     sig.diagonal().array() -= particles_.viscousPressure[p];
-    const double hoopStress = hoop ? sig(2, 2) / particles_.position[p][0] : 0.0;
-    const Eigen::Matrix<double, D, D> s = sig.template topLeftCorner<D, D>();
+    // f_I = -V (sigma grad N_I), plus -V sigma_tt N_I / r on the radial component in axisymmetric runs.
+    const double hoopForce = hoop ? -V * sig(2, 2) / particles_.position[p][0] : 0.0;
+    const Eigen::Matrix<double, D, D> minusVs = -V * sig.template topLeftCorner<D, D>();
     forEachNode<D>(stencil_[p], strides_, ns, [&](long node, double w, const Vec<D>& g) {
-      const long i = off + node;
-      mass_[i] += w * m;
-      momentum_[i] += w * mv;
-      Vec<D> f = s * g;
-      if constexpr (D == 2) f[0] += hoopStress * w;
-      force_[i] -= V * f;
-      if (gradients) massGradient_[i] += m * g;
+      ScatterNode<D>& n = scatter_[off + node];
+      n.mass += w * m;
+      n.momentum += w * mv;
+      n.force.noalias() += minusVs * g;
+      if constexpr (D == 2) n.force[0] += hoopForce * w;
+      if (gradients) n.gradient += m * g;
     });
   });
 }
@@ -341,7 +344,7 @@ void Solver<D>::applyVelocityConditions(bool integrate) {
     int count = 0;
     for (int b = 0; b < B; ++b) {
       const long i = b * N + n;
-      m[b] = mass_[i];
+      m[b] = scatter_[i].mass;
       if (integrate) {
         if (contact) contactDelta_[i].setZero();
         if (trackBoundary_) boundaryDelta_[i].setZero();
@@ -352,11 +355,11 @@ void Solver<D>::applyVelocityConditions(bool integrate) {
         continue;
       }
       if (integrate) {
-        const Vec<D> vOld = momentum_[i] / m[b];
-        v[b] = (momentum_[i] + dt * force_[i]) / m[b];
+        const Vec<D> vOld = scatter_[i].momentum / m[b];
+        v[b] = (scatter_[i].momentum + dt * scatter_[i].force) / m[b];
         velocityChange_[i] = vOld;  // holds the old velocity until the end of this node's update
       } else {
-        v[b] = momentum_[i] / m[b];
+        v[b] = scatter_[i].momentum / m[b];
       }
       if (count < kMaxBodies) ids[count++] = b;
     }
@@ -374,12 +377,12 @@ void Solver<D>::applyVelocityConditions(bool integrate) {
     }
     if (contactCount > 1) {
       Vec<D> total = Vec<D>::Zero();
-      for (int k = 0; k < contactCount; ++k) total += massGradient_[touching[k] * N + n];
+      for (int k = 0; k < contactCount; ++k) total += scatter_[touching[k] * N + n].gradient;
       // sum_p m_p grad N_I(x_p) points from a body towards the node, i.e. along the body's outward normal at its
       // surface. Body b's normal uses its own gradient minus the others', so two bodies get opposite normals.
       for (int k = 0; k < contactCount; ++k) {
         const int b = touching[k];
-        const Vec<D> g = 2.0 * massGradient_[b * N + n] - total;
+        const Vec<D> g = 2.0 * scatter_[b * N + n].gradient - total;
         const double len = g.norm();
         normal[b] = len > 0 ? Vec<D>(g / len) : Vec<D>::Zero();
       }
@@ -461,15 +464,15 @@ void Solver<D>::gridToParticles() {
 // Stage 5 (MUSL): map the updated momenta back to the grid.
 template <int D>
 void Solver<D>::remapMomentum() {
-  const std::size_t fields = mass_.size();
+  const std::size_t fields = scatter_.size();
 #pragma omp parallel for schedule(static) num_threads(threads_) if (parallel_)
-  for (long i = 0; i < static_cast<long>(fields); ++i) momentum_[i].setZero();
+  for (long i = 0; i < static_cast<long>(fields); ++i) scatter_[i].momentum.setZero();
   const int ns = stencilSize(options_.shapeFunction);
   scatterByColour([&](int p) {
     const long off = bodies_ > 1 ? static_cast<long>(particles_.body[p]) * static_cast<long>(nodeCount_) : 0;
     const Vec<D> mv = particles_.mass[p] * particles_.velocity[p];
     forEachNode<D>(stencil_[p], strides_, ns,
-                   [&](long node, double w, const Vec<D>&) { momentum_[off + node] += w * mv; });
+                   [&](long node, double w, const Vec<D>&) { scatter_[off + node].momentum += w * mv; });
   });
   applyVelocityConditions(false);
 }
@@ -575,9 +578,9 @@ long Solver<D>::firstNonFiniteParticle() const {
 
 template <int D>
 std::size_t Solver<D>::memoryBytes() const {
-  const std::size_t grid = mass_.capacity() * sizeof(double) +
-                           (momentum_.capacity() + force_.capacity() + velocity_.capacity() +
-                            velocityChange_.capacity() + massGradient_.capacity()) *
+  const std::size_t grid = scatter_.capacity() * sizeof(ScatterNode<D>) +
+                           (velocity_.capacity() + velocityChange_.capacity() + contactDelta_.capacity() +
+                            boundaryDelta_.capacity()) *
                                sizeof(Vec<D>);
   const std::size_t caches = stencil_.capacity() * sizeof(Stencil<D>) +
                              (slabOf_.capacity() + order_.capacity() + slabStart_.capacity() + cursor_.capacity()) *

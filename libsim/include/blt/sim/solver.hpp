@@ -79,6 +79,16 @@ struct Stencil {
   double g[D][kStencil];
 };
 
+// The fields a particle scatters to one node of its body's field, kept together so that a scatter touches one
+// record per node. gradient: sum of m_p grad N_I, for the contact normals.
+template <int D>
+struct ScatterNode {
+  double mass = 0;
+  Vec<D> momentum = Vec<D>::Zero();
+  Vec<D> force = Vec<D>::Zero();
+  Vec<D> gradient = Vec<D>::Zero();
+};
+
 template <int D>
 class Solver {
  public:
@@ -138,8 +148,8 @@ class Solver {
   Eigen::Array<long, D, 1> strides_;
   std::size_t nodeCount_ = 0;
   int bodies_ = 1;
-  std::vector<double> mass_;
-  std::vector<Vec<D>> momentum_, force_, velocity_, velocityChange_, massGradient_;
+  std::vector<ScatterNode<D>> scatter_;  // what particles-to-grid accumulates, one record per node and body
+  std::vector<Vec<D>> velocity_, velocityChange_;
   std::vector<Vec<D>> contactDelta_, boundaryDelta_;  // velocity changes made by contact and by dashpots
   bool trackBoundary_ = false;
   std::vector<double> bodyWaveSpeed_, bodyShearSpeed_;
