@@ -56,8 +56,7 @@ template <int D>
 TaylorBarShape measureTaylorBar(const Solver<D>& solver) {
   const auto& P = solver.particles();
   TaylorBarShape shape;
-  double zMin = 1e30;
-  for (std::size_t p = 0; p < P.size(); ++p) zMin = std::min(zMin, P.position[p][D - 1]);
+  const double zMin = solver.grid().lower[D - 1];  // the wall
   for (std::size_t p = 0; p < P.size(); ++p) {
     const Mat3 b = P.deformationGradient[p] * P.deformationGradient[p].transpose();
     const double halfZ = P.halfSize[p][D - 1] * std::sqrt(b(D - 1, D - 1));

@@ -77,6 +77,8 @@ void Solver<D>::initialise() {
   }
   trackBoundary_ = false;
   for (auto f : spec_.boundary) trackBoundary_ |= f == BoundaryKind::nonReflecting;
+  for (int f = 0; f < 2 * D; ++f)
+    walls_[f] = spec_.boundary[f] == BoundaryKind::fixed || spec_.boundary[f] == BoundaryKind::symmetry;
   if (trackBoundary_) boundaryDelta_.assign(fields, Vec<D>::Zero());
   stencil_.resize(n);
   slabOf_.assign(n, 0);
@@ -455,6 +457,12 @@ void Solver<D>::gridToParticles() {
     Vec<D>& x = particles_.position[p];
     x += dt * vGrid;
     if (axisymmetric && x[0] < 0) x[0] = -x[0];  // a point crossing the axis reappears on the other side
+    // A wall (fixed face or symmetry plane) holds its nodes, but a point near it moves with the interpolated
+    // velocity of the nodes behind and can drift through; material stays on its side of the wall.
+    for (int a = 0; a < D; ++a) {
+      if (walls_[2 * a] && x[a] < spec_.lower[a]) x[a] = spec_.lower[a];
+      if (walls_[2 * a + 1] && x[a] > spec_.upper[a]) x[a] = spec_.upper[a];
+    }
   }
   contactDissipation_ += contactSum;
   boundaryWork_ += boundarySum;

@@ -155,6 +155,7 @@ class Solver {
   std::vector<Vec<D>> velocity_, velocityChange_;
   std::vector<Vec<D>> contactDelta_, boundaryDelta_;  // velocity changes made by contact and by dashpots
   bool trackBoundary_ = false;
+  std::array<bool, 2 * D> walls_{};  // faces that material may not cross (fixed, symmetry)
   std::vector<double> bodyWaveSpeed_, bodyShearSpeed_;
 
   // Per-particle caches and thread bins.
