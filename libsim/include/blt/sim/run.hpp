@@ -1,7 +1,7 @@
 #pragma once
 // Running a solver to an end time: field frames and the energy history at fixed intervals, progress reports,
 // an optional stop test (the perforation verdict of a scenario), and the instability guard. A run that goes
-// unstable (a non-finite particle state, total energy growing past the bound, the time step collapsing) stops
+// unstable (a non-finite particle state, kinetic + internal energy growing past the bound, the time step collapsing) stops
 // with a message that says where and when; everything written up to then is kept.
 
 #include <functional>
@@ -20,8 +20,8 @@ struct RunOptions {
   std::string name = "run";          // file stem: NAME.pvd, NAME_0000.vtu, NAME_energy.csv, NAME_summary.json
   int frames = 10;                   // particle frames written over [0, endTime] (plus the last state)
   int energySamples = 200;           // rows of the energy history over [0, endTime]
-  // Unstable when total energy exceeds (1 + energyGrowthLimit) x the largest total seen in the first step
-  // plus the work done by nothing else (the model has no external loads).
+  // Unstable when kinetic + internal energy exceeds (1 + energyGrowthLimit) x the initial total (the model has
+  // no external loads, so nothing can add energy).
   double energyGrowthLimit = 0.05;
   double minTimeStepRatio = 1e-4;    // unstable when dt falls below this fraction of the first step's
   long maxSteps = -1;                // stop after this many steps (benchmarks); -1: no limit
