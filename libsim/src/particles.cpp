@@ -59,6 +59,39 @@ std::size_t Particles<D>::bytes() const {
               2 * sizeof(int));
 }
 
+namespace {
+template <class T>
+void applyOrder(std::vector<T>& v, const std::vector<int>& order) {
+  std::vector<T> out(v.size());
+  for (std::size_t i = 0; i < order.size(); ++i) out[i] = v[static_cast<std::size_t>(order[i])];
+  v.swap(out);
+}
+}  // namespace
+
+template <int D>
+void Particles<D>::permute(const std::vector<int>& order) {
+  applyOrder(position, order);
+  applyOrder(velocity, order);
+  applyOrder(halfSize, order);
+  applyOrder(mass, order);
+  applyOrder(initialVolume, order);
+  applyOrder(volume, order);
+  applyOrder(deformationGradient, order);
+  applyOrder(stress, order);
+  applyOrder(viscousPressure, order);
+  applyOrder(specificEnergy, order);
+  applyOrder(temperature, order);
+  applyOrder(plasticStrain, order);
+  applyOrder(damage, order);
+  applyOrder(soundSpeed, order);
+  applyOrder(plasticWork, order);
+  applyOrder(viscousWork, order);
+  applyOrder(failed, order);
+  applyOrder(active, order);
+  applyOrder(material, order);
+  applyOrder(body, order);
+}
+
 template struct Particles<2>;
 template struct Particles<3>;
 

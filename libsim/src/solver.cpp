@@ -48,6 +48,8 @@ int threadCount(const SolverOptions& o) { return o.threads > 0 ? o.threads : omp
 // Below this many particles a step is too short for threads to pay for their barriers (and on a loaded machine
 // a descheduled thread stalls every barrier), so small runs stay serial.
 constexpr std::size_t kParallelThreshold = 20000;
+// Steps between reorderings of the particles in memory (sortParticles).
+constexpr long kReorderInterval = 25;
 // Share of a node's mass below which a body takes no part in the contact correction there.
 constexpr double kContactMassFraction = 0.05;
 }  // namespace
@@ -123,7 +125,34 @@ void Solver<D>::bodyWaveSpeeds() {
 
 template <int D>
 void Solver<D>::step() {
+  if (steps_ % kReorderInterval == 0) sortParticles();
   static_cast<const UpdateScheme<D>&>(*scheme_).advance(*this);
+}
+
+// Puts the particles in the order of their cells, the slab axis varying slowest, so that the slab bins of
+// computeShapeFunctions are runs of consecutive particles and each pass streams through memory.
+template <int D>
+void Solver<D>::sortParticles() {
+  const std::size_t n = particles_.size();
+  std::vector<long>& key = sortKey_;
+  key.resize(n);
+  const double h = spec_.cellSize;
+  for (std::size_t p = 0; p < n; ++p) {
+    long k = 0;
+    for (int a = D - 1; a >= 0; --a) {
+      const int axis = a == D - 1 ? slabAxis_ : (a == slabAxis_ ? D - 1 : a);  // slab axis most significant
+      const long c = std::clamp(static_cast<long>((particles_.position[p][axis] - spec_.lower[axis]) / h), 0L,
+                                static_cast<long>(nodes_[axis]) - 1);
+      k = k * nodes_[axis] + c;
+    }
+    key[p] = particles_.active[p] ? k : std::numeric_limits<long>::max();
+  }
+  std::vector<int>& perm = order_;
+  for (std::size_t p = 0; p < n; ++p) perm[p] = static_cast<int>(p);
+  std::stable_sort(perm.begin(), perm.end(), [&](int a, int b) { return key[a] < key[b]; });
+  bool identity = true;
+  for (std::size_t p = 0; p < n && identity; ++p) identity = perm[p] == static_cast<int>(p);
+  if (!identity) particles_.permute(perm);
 }
 
 // ---------------------------------------------------------------------------------------------------------

@@ -50,6 +50,9 @@ struct Particles {
                   int materialId, int bodyId, double roomTemperature);
   // Bytes held by the particle arrays (capacity), for the memory figures of the benchmark.
   std::size_t bytes() const;
+  // Reorders every array so that new particle i is old particle order[i] (a permutation). Allocates one
+  // scratch array per field; the solver calls it every few dozen steps to keep neighbours close in memory.
+  void permute(const std::vector<int>& order);
 };
 
 }  // namespace blt::sim

@@ -136,6 +136,7 @@ class Solver {
 
  private:
   void applyVelocityConditions(bool integrate);
+  void sortParticles();
   void bodyWaveSpeeds();
   template <class F>
   void scatterByColour(F&& body);
@@ -164,6 +165,7 @@ class Solver {
   std::vector<int> order_;      // active particles sorted by slab
   std::vector<int> slabStart_;  // slab s holds order_[slabStart_[s] .. slabStart_[s+1])
   std::vector<int> cursor_;
+  std::vector<long> sortKey_;
   int slabAxis_ = 0, slabCount_ = 0;
   std::size_t activeCount_ = 0;
   int threads_ = 1;
