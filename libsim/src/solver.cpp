@@ -7,6 +7,7 @@
 #include <limits>
 #include <stdexcept>
 
+#include "blt/sim/contact.hpp"
 #include "blt/sim/update_scheme.hpp"
 
 namespace blt::sim {
@@ -298,36 +299,6 @@ void Solver<D>::particlesToGrid() {
 
 // ---------------------------------------------------------------------------------------------------------
 // Stage 3: grid momentum update, contact, boundaries.
-
-// Contact between the bodies present at one node (multi-field): bodies that approach the node's centre of
-// mass along their outward normal lose that velocity component; the tangential part is limited by Coulomb
-// friction. v, m, normal: per body; `count` bodies take part, their indices in `ids`.
-template <int D>
-static void correctContact(Vec<D>* v, const double* m, const Vec<D>* normal, const int* ids, int count,
-                             double friction) {
-  double mt = 0;
-  Vec<D> p = Vec<D>::Zero();
-  for (int k = 0; k < count; ++k) {
-    mt += m[ids[k]];
-    p += m[ids[k]] * v[ids[k]];
-  }
-  const Vec<D> vcm = p / mt;
-  for (int k = 0; k < count; ++k) {
-    const int b = ids[k];
-    const Vec<D>& n = normal[b];
-    const Vec<D> dv = v[b] - vcm;
-    const double dn = dv.dot(n);
-    if (!(dn > 0)) continue;  // separating or sliding tangentially: no correction
-    const Vec<D> tangential = dv - dn * n;
-    const double tn = tangential.norm();
-    Vec<D> vNew;
-    if (friction * dn >= tn)
-      vNew = vcm;  // stick
-    else
-      vNew = v[b] - dn * n - (tn > 0 ? friction * dn / tn : 0.0) * tangential;
-    v[b] = vNew;
-  }
-}
 
 // Imposes the face conditions on one nodal velocity and returns the part of the change made by the dashpots
 // (the energy they absorb is tallied on the particles). Fixed faces and symmetry planes do no work.

@@ -1,0 +1,41 @@
+#pragma once
+// The multi-field contact correction at one grid node (Bardenhagen et al. 2000; the scheme of seed 000's MPM3D
+// family): bodies whose velocity, relative to the node's centre of mass, points along their outward normal are
+// approaching; they lose that normal component, and their tangential relative velocity changes by at most
+// mu times the normal change (Coulomb), or vanishes when that suffices (stick). Momentum is conserved.
+
+#include "blt/sim/particles.hpp"
+
+namespace blt::sim {
+
+// Contact between the bodies present at one node (multi-field): bodies that approach the node's centre of
+// mass along their outward normal lose that velocity component; the tangential part is limited by Coulomb
+// friction. v, m, normal: per body; `count` bodies take part, their indices in `ids`.
+template <int D>
+inline void correctContact(Vec<D>* v, const double* m, const Vec<D>* normal, const int* ids, int count,
+                             double friction) {
+  double mt = 0;
+  Vec<D> p = Vec<D>::Zero();
+  for (int k = 0; k < count; ++k) {
+    mt += m[ids[k]];
+    p += m[ids[k]] * v[ids[k]];
+  }
+  const Vec<D> vcm = p / mt;
+  for (int k = 0; k < count; ++k) {
+    const int b = ids[k];
+    const Vec<D>& n = normal[b];
+    const Vec<D> dv = v[b] - vcm;
+    const double dn = dv.dot(n);
+    if (!(dn > 0)) continue;  // separating or sliding tangentially: no correction
+    const Vec<D> tangential = dv - dn * n;
+    const double tn = tangential.norm();
+    Vec<D> vNew;
+    if (friction * dn >= tn)
+      vNew = vcm;  // stick
+    else
+      vNew = v[b] - dn * n - (tn > 0 ? friction * dn / tn : 0.0) * tangential;
+    v[b] = vNew;
+  }
+}
+
+}  // namespace blt::sim
