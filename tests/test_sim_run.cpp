@@ -240,6 +240,36 @@ TEST_CASE("sim: an unstable run stops with where and when, and keeps what it wro
   fs::remove_all(dir);
 }
 
+TEST_CASE("sim: a run restored from a checkpoint continues exactly as the uninterrupted run") {
+  const auto dir = freshDir("checkpoint");
+  fs::create_directories(dir);
+  const auto copper = blt::MaterialLibrary::load().get("cu_ofhc");
+  TaylorBarCase c;
+  c.particlesPerDiameter = 6;
+  auto straight = makeTaylorBarAxisymmetric(c, copper);
+  auto first = makeTaylorBarAxisymmetric(c, copper);
+  for (int i = 0; i < 60; ++i) straight->step();
+  for (int i = 0; i < 33; ++i) first->step();  // not a multiple of the reordering interval
+  const std::string file = (dir / "bar_checkpoint.bin").string();
+  writeCheckpoint<2>(file, *first);
+  auto resumed = makeTaylorBarAxisymmetric(c, copper);
+  readCheckpoint<2>(file, *resumed);
+  CHECK(resumed->stepCount() == 33);
+  while (resumed->stepCount() < 60) resumed->step();
+  CHECK(resumed->time() == straight->time());
+  bool identical = true;
+  for (std::size_t i = 0; i < straight->particles().size(); ++i)
+    identical &= straight->particles().position[i] == resumed->particles().position[i] &&
+                 straight->particles().stress[i] == resumed->particles().stress[i];
+  CHECK(identical);
+  // A checkpoint of another scenario is refused with the file named.
+  TaylorBarCase other = c;
+  other.particlesPerDiameter = 8;
+  auto mismatch = makeTaylorBarAxisymmetric(other, copper);
+  CHECK_THROWS_WITH_AS(readCheckpoint<2>(file, *mismatch), doctest::Contains("bar_checkpoint.bin"), blt::InputError);
+  fs::remove_all(dir);
+}
+
 TEST_CASE("sim: the time step follows seed 001 Eq. 8, safety x cell / (c + |v|)") {
   const auto copper = blt::MaterialLibrary::load().get("cu_ofhc");
   TaylorBarCase c;

@@ -70,26 +70,7 @@ void applyOrder(std::vector<T>& v, const std::vector<int>& order) {
 
 template <int D>
 void Particles<D>::permute(const std::vector<int>& order) {
-  applyOrder(position, order);
-  applyOrder(velocity, order);
-  applyOrder(halfSize, order);
-  applyOrder(mass, order);
-  applyOrder(initialVolume, order);
-  applyOrder(volume, order);
-  applyOrder(deformationGradient, order);
-  applyOrder(stress, order);
-  applyOrder(viscousPressure, order);
-  applyOrder(specificEnergy, order);
-  applyOrder(temperature, order);
-  applyOrder(plasticStrain, order);
-  applyOrder(damage, order);
-  applyOrder(soundSpeed, order);
-  applyOrder(plasticWork, order);
-  applyOrder(viscousWork, order);
-  applyOrder(failed, order);
-  applyOrder(active, order);
-  applyOrder(material, order);
-  applyOrder(body, order);
+  forEachArray([&](auto& v) { applyOrder(v, order); });
 }
 
 template struct Particles<2>;

@@ -8,7 +8,9 @@
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <tuple>
 
+#include "blt/core/error.hpp"
 #include "blt/sim/output.hpp"
 
 namespace blt::sim {
@@ -119,7 +121,8 @@ RunResult run(Solver<D>& solver, const RunOptions& options, const RunHooks<D>& h
   const double energyEvery = options.energySamples > 0 ? options.endTime / options.energySamples : options.endTime;
   double nextFrame = solver.time() + frameEvery;
   double nextEnergy = solver.time() + energyEvery;
-  auto lastProgress = start;
+  auto lastProgress = start, lastCheckpoint = start;
+  const std::string checkpointFile = options.name + "_checkpoint.bin";
   bool frameCurrent = true;
   double updates = 0;
   EnergyBalance e = result.initialEnergy;
@@ -182,6 +185,11 @@ RunResult run(Solver<D>& solver, const RunOptions& options, const RunHooks<D>& h
       frameCurrent = true;
     }
     const auto now = Clock::now();
+    if (writing && options.checkpointSeconds > 0 &&
+        std::chrono::duration<double>(now - lastCheckpoint).count() >= options.checkpointSeconds) {
+      lastCheckpoint = now;
+      writeCheckpoint<D>((dir / checkpointFile).string(), solver);
+    }
     if (hooks.progress && std::chrono::duration<double>(now - lastProgress).count() >= options.progressSeconds) {
       lastProgress = now;
       hooks.progress({solver.stepCount(), solver.time(), options.endTime, solver.timeStep(),
@@ -191,6 +199,10 @@ RunResult run(Solver<D>& solver, const RunOptions& options, const RunHooks<D>& h
   result.wallSeconds = std::chrono::duration<double>(Clock::now() - start).count();
   result.finalEnergy = solver.energies();
   if (!frameCurrent) writeFrame();
+  if (writing && options.checkpointSeconds > 0) {
+    writeCheckpoint<D>((dir / checkpointFile).string(), solver);
+    result.files.push_back(checkpointFile);
+  }
   result.steps = solver.stepCount() - firstStep;
   result.time = solver.time();
   result.particleUpdatesPerSecond = result.wallSeconds > 0 ? updates / result.wallSeconds : 0.0;
@@ -240,6 +252,77 @@ RunResult run(Solver<D>& solver, const RunOptions& options, const RunHooks<D>& h
   }
   return result;
 }
+
+namespace {
+constexpr char kCheckpointMagic[8] = {'B', 'L', 'T', 'C', 'K', 'P', 'T', '1'};
+
+struct CheckpointHeader {
+  char magic[8];
+  std::int32_t dimension;
+  std::uint64_t particles;
+  double time;
+  std::int64_t steps;
+  double timeStep, contactDissipation, boundaryWork;
+};
+}  // namespace
+
+template <int D>
+void writeCheckpoint(const std::string& path, Solver<D>& solver) {
+  const std::string tmp = path + ".tmp";
+  {
+    std::ofstream out(tmp, std::ios::binary);
+    if (!out) throw std::runtime_error("cannot write " + tmp);
+    CheckpointHeader h{};
+    std::copy(std::begin(kCheckpointMagic), std::end(kCheckpointMagic), h.magic);
+    h.dimension = D;
+    h.particles = solver.particles().size();
+    h.time = solver.time();
+    h.steps = solver.stepCount();
+    h.timeStep = solver.timeStep();
+    std::tie(h.contactDissipation, h.boundaryWork) = solver.energyTallies();
+    out.write(reinterpret_cast<const char*>(&h), sizeof h);
+    solver.particles().forEachArray([&](auto& v) {
+      const std::uint64_t bytes = v.size() * sizeof(v[0]);
+      out.write(reinterpret_cast<const char*>(&bytes), sizeof bytes);
+      out.write(reinterpret_cast<const char*>(v.data()), static_cast<std::streamsize>(bytes));
+    });
+    if (!out) throw std::runtime_error("failed writing " + tmp);
+  }
+  std::filesystem::rename(tmp, path);
+}
+
+template <int D>
+void readCheckpoint(const std::string& path, Solver<D>& solver) {
+  std::ifstream in(path, std::ios::binary);
+  const InputLocation where = InputLocation::file(path);
+  if (!in) throw InputError(where, "cannot open the checkpoint", "a NAME_checkpoint.bin written by a run");
+  CheckpointHeader h{};
+  in.read(reinterpret_cast<char*>(&h), sizeof h);
+  if (!in || !std::equal(std::begin(kCheckpointMagic), std::end(kCheckpointMagic), h.magic))
+    throw InputError(where, "not a blt checkpoint", "a NAME_checkpoint.bin written by a run");
+  if (h.dimension != D)
+    throw InputError(where, "checkpoint of a " + std::to_string(h.dimension) + "D run",
+                     "a checkpoint of a " + std::to_string(D) + "D run");
+  if (h.particles != solver.particles().size())
+    throw InputError(where, "checkpoint holds " + std::to_string(h.particles) + " particles, the scenario " +
+                                std::to_string(solver.particles().size()),
+                     "a checkpoint of the same scenario");
+  solver.particles().forEachArray([&](auto& v) {
+    std::uint64_t bytes = 0;
+    in.read(reinterpret_cast<char*>(&bytes), sizeof bytes);
+    if (!in || bytes != v.size() * sizeof(v[0]))
+      throw InputError(where, "truncated or mismatched checkpoint", "a checkpoint of the same scenario");
+    in.read(reinterpret_cast<char*>(v.data()), static_cast<std::streamsize>(bytes));
+    if (!in) throw InputError(where, "truncated checkpoint", "a complete checkpoint");
+  });
+  solver.setClock(h.time, h.steps, h.timeStep);
+  solver.setEnergyTallies(h.contactDissipation, h.boundaryWork);
+}
+
+template void writeCheckpoint<2>(const std::string&, Solver<2>&);
+template void writeCheckpoint<3>(const std::string&, Solver<3>&);
+template void readCheckpoint<2>(const std::string&, Solver<2>&);
+template void readCheckpoint<3>(const std::string&, Solver<3>&);
 
 template RunResult run<2>(Solver<2>&, const RunOptions&, const RunHooks<2>&);
 template RunResult run<3>(Solver<3>&, const RunOptions&, const RunHooks<3>&);

@@ -53,6 +53,14 @@ struct Particles {
   // Reorders every array so that new particle i is old particle order[i] (a permutation). Allocates one
   // scratch array per field; the solver calls it every few dozen steps to keep neighbours close in memory.
   void permute(const std::vector<int>& order);
+
+  // Calls f(array) for every per-particle array, always in the same order (permutation, checkpoints).
+  template <class F>
+  void forEachArray(F&& f) {
+    f(position), f(velocity), f(halfSize), f(mass), f(initialVolume), f(volume), f(deformationGradient);
+    f(stress), f(viscousPressure), f(specificEnergy), f(temperature), f(plasticStrain), f(damage);
+    f(soundSpeed), f(plasticWork), f(viscousWork), f(failed), f(active), f(material), f(body);
+  }
 };
 
 }  // namespace blt::sim

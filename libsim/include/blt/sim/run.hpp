@@ -26,6 +26,9 @@ struct RunOptions {
   double minTimeStepRatio = 1e-4;    // unstable when dt falls below this fraction of the first step's
   long maxSteps = -1;                // stop after this many steps (benchmarks); -1: no limit
   double progressSeconds = 2.0;      // wall time between progress reports
+  // Wall time between checkpoints NAME_checkpoint.bin (and one at the end); 0 writes none. A run restored from
+  // one (readCheckpoint) continues exactly as the uninterrupted run would have.
+  double checkpointSeconds = 0;
 };
 
 enum class RunStatus { completed, stopped, unstable, stepLimit };
@@ -58,5 +61,14 @@ struct RunHooks {
 
 template <int D>
 RunResult run(Solver<D>& solver, const RunOptions& options, const RunHooks<D>& hooks = {});
+
+// The state a step needs (particles, clock, energy tallies) in a binary file, written to a temporary name and
+// renamed, so an interrupted write leaves the previous checkpoint whole. Grid fields are rebuilt every step.
+template <int D>
+void writeCheckpoint(const std::string& path, Solver<D>& solver);
+// Restores a checkpoint into a solver set up from the same scenario (same dimension and particle count).
+// Throws InputError naming the file for a file that is not a checkpoint or does not match.
+template <int D>
+void readCheckpoint(const std::string& path, Solver<D>& solver);
 
 }  // namespace blt::sim

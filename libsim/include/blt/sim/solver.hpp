@@ -129,9 +129,9 @@ class Solver {
   void remapMomentum();          // MUSL: nodal velocities from the updated particle momenta
   void updateStress();           // velocity gradient, deformation, constitutive update, next dt
 
-  // Restores a state written by writeRestart (run.hpp); grid fields are rebuilt each step and not stored.
+  // Restores the clock of a checkpoint (run.hpp); grid fields are rebuilt each step and not stored.
   void setClock(double time, long steps, double dt) { time_ = time; steps_ = steps; dt_ = dt; }
-  void addEnergyTallies(double contact, double boundary) { contactDissipation_ += contact; boundaryWork_ += boundary; }
+  void setEnergyTallies(double contact, double boundary) { contactDissipation_ = contact; boundaryWork_ = boundary; }
   std::pair<double, double> energyTallies() const { return {contactDissipation_, boundaryWork_}; }
 
  private:
