@@ -46,9 +46,10 @@ Solver<D>::~Solver() = default;
 
 namespace {
 int threadCount(const SolverOptions& o) { return o.threads > 0 ? o.threads : omp_get_max_threads(); }
-// Below this many particles a step is too short for threads to pay for their barriers (and on a loaded machine
-// a descheduled thread stalls every barrier), so small runs stay serial.
-constexpr std::size_t kParallelThreshold = 20000;
+// Below this many particles a step is too short for threads to pay for their barriers, so small runs stay
+// serial. (On a machine whose cores are busy with other work a descheduled thread stalls every barrier: runs
+// sharing a machine should each use threads = 1.)
+constexpr std::size_t kParallelThreshold = 4000;
 // Steps between reorderings of the particles in memory (sortParticles).
 constexpr long kReorderInterval = 25;
 // Share of a node's mass below which a body takes no part in the contact correction there.

@@ -50,7 +50,10 @@ struct SolverOptions {
   BulkViscosity viscosity;
   ContactOptions contact;
   bool axisymmetric = true;  // D = 2 only; false gives plane strain
-  int threads = 0;           // OpenMP threads; 0 keeps the OpenMP default (OMP_NUM_THREADS or all cores)
+  // OpenMP threads; 0 keeps the OpenMP default (OMP_NUM_THREADS or all cores). Runs below 4000 particles stay
+  // serial. Several runs sharing a machine should use 1 each: a thread waiting at a barrier for a descheduled
+  // partner costs a whole time slice.
+  int threads = 0;
 };
 
 template <int D>
