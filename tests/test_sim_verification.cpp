@@ -221,7 +221,7 @@ tangent_modulus = "0 MPa"
 // column's own impedance, so it acts like an identical column beyond the face (1D wave theory: impact on a
 // matched half-space transmits everything). After the wave has run to the free end and back, the column is at
 // rest and its strain energy has left through the face: less than 2 % of the kinetic energy may remain.
-TEST_CASE("sim: a non-reflecting face absorbs an impedance-matched impact, less than 2 % of the energy remains") {
+TEST_CASE("sim: a non-reflecting face absorbs an impedance-matched impact: less than 2 % of the energy remains") {
   const double h = 0.25e-3, s = 0.125e-3, L = 0.02, v0 = 5.0;
   GridSpec<2> g;
   g.cellSize = h;
@@ -250,7 +250,7 @@ TEST_CASE("sim: a non-reflecting face absorbs an impedance-matched impact, less 
 // The same normal impact run as a 3D quarter model and as an axisymmetric model must give the same crater:
 // 2A12 cylinder (seed 000 Table 3) at 1.5 km/s on a 5A06 plate, projectile and plate as two bodies with the
 // multi-field contact; penetration depth within 5 %.
-TEST_CASE("sim: normal impact, 3D quarter model and axisymmetric run agree on penetration depth within 5 %") {
+TEST_CASE("sim: a normal impact run as a 3D quarter model and axisymmetric agrees on penetration depth within 5 %") {
   const auto lib = blt::MaterialLibrary::load();
   PlateImpactCase c;
   c.velocity = 1500;
