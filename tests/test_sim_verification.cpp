@@ -3,6 +3,7 @@
 #include <doctest/doctest.h>
 
 #include <cmath>
+#include <memory>
 #include <cstdio>
 #include <vector>
 
@@ -47,6 +48,30 @@ double waveFront(const Solver<D>& s, double length, double spacing, double v0) {
     prevV = v;
   }
   return -1;
+}
+
+// A column in uniaxial strain along y (plane strain, symmetry on both sides, two cells wide because the grid
+// keeps at least three nodes per axis) of length L, cell 0.25 mm and two particles per cell, moving at -v0 onto
+// its lower face.
+std::unique_ptr<Solver<2>> uniaxialColumn(const char* cardText, double L, double v0, BoundaryKind lowerFace,
+                                          bool viscosity) {
+  const double h = 0.25e-3, s = 0.125e-3;
+  GridSpec<2> g;
+  g.cellSize = h;
+  g.lower = Vec<2>(0, 0);
+  g.upper = Vec<2>(2 * h, L + 2 * h);
+  g.boundary = {BoundaryKind::symmetry, BoundaryKind::symmetry, lowerFace, BoundaryKind::free};
+  SolverOptions o;
+  o.axisymmetric = false;
+  if (!viscosity) o.viscosity = {0.0, 0.0};
+  auto solver = std::make_unique<Solver<2>>(g, o, std::vector<SolidMaterial>{makeSolidMaterial(card(cardText, "column"))});
+  BodyFill<2> fill;
+  fill.spacing = s;
+  fill.axisymmetric = false;
+  fill.velocity = Vec<2>(0, -v0);
+  fillBox<2>(solver->particles(), solver->materials()[0], fill, Vec<2>(0, 0), Vec<2>(2 * h, L));
+  solver->initialise();
+  return solver;
 }
 
 }  // namespace
@@ -139,22 +164,9 @@ gamma0 = 2.0
 // where the first layer of material meets the wall (an inelastic collision of that layer's nodal mass), in
 // proportion to cell size over column length; 400 cells along the column make that loss small.
 TEST_CASE("sim: elastic impact on a rigid wall conserves energy within 1 % of the initial kinetic energy") {
-  const double h = 0.25e-3, s = 0.125e-3, L = 0.1, v0 = 5.0;
-  GridSpec<2> g;
-  g.cellSize = h;
-  g.lower = Vec<2>(0, 0);
-  g.upper = Vec<2>(2 * h, L + 2 * h);  // the grid has at least three nodes per axis
-  g.boundary = {BoundaryKind::symmetry, BoundaryKind::symmetry, BoundaryKind::symmetry, BoundaryKind::free};
-  SolverOptions o;
-  o.axisymmetric = false;
-  o.viscosity = {0.0, 0.0};
-  Solver<2> solver(g, o, {makeSolidMaterial(card(kElasticAluminium, "elastic"))});
-  BodyFill<2> fill;
-  fill.spacing = s;
-  fill.axisymmetric = false;
-  fill.velocity = Vec<2>(0, -v0);
-  fillBox<2>(solver.particles(), solver.materials()[0], fill, Vec<2>(0, 0), Vec<2>(2 * h, L));
-  solver.initialise();
+  const double L = 0.1;
+  auto column = uniaxialColumn(kElasticAluminium, L, 5.0, BoundaryKind::symmetry, false);
+  Solver<2>& solver = *column;
   const EnergyBalance e0 = solver.energies();
   const double c = std::sqrt(70e9 * 0.7 / (1.3 * 0.4) / 2700);
   double worst = 0;
@@ -175,15 +187,8 @@ TEST_CASE("sim: elastic impact on a rigid wall conserves energy within 1 % of th
 // c_B = sqrt(K / rho) brings the material at the wall to rest, so sigma_zz there reaches
 // sigma_HEL + rho c_B (v0 - sigma_HEL / (rho c_L)). Checks the radial return inside a dynamic run, within 3 %.
 TEST_CASE("sim: elastic-plastic wall impact in uniaxial strain reaches the two-wave stress within 3 %") {
-  const double h = 0.25e-3, s = 0.125e-3, L = 0.1, v0 = 100.0;
+  const double L = 0.1, v0 = 100.0;
   const double E = 70e9, nu = 0.3, rho = 2700, Y = 300e6;
-  GridSpec<2> g;
-  g.cellSize = h;
-  g.lower = Vec<2>(0, 0);
-  g.upper = Vec<2>(2 * h, L + 2 * h);  // the grid has at least three nodes per axis
-  g.boundary = {BoundaryKind::symmetry, BoundaryKind::symmetry, BoundaryKind::symmetry, BoundaryKind::free};
-  SolverOptions o;
-  o.axisymmetric = false;
   const char* epp = R"toml(name = "elastic-perfectly plastic"
 source = "test"
 density = "2700 kg/m3"
@@ -195,13 +200,8 @@ model = "bilinear"
 yield_stress = "300 MPa"
 tangent_modulus = "0 MPa"
 )toml";
-  Solver<2> solver(g, o, {makeSolidMaterial(card(epp, "epp"))});
-  BodyFill<2> fill;
-  fill.spacing = s;
-  fill.axisymmetric = false;
-  fill.velocity = Vec<2>(0, -v0);
-  fillBox<2>(solver.particles(), solver.materials()[0], fill, Vec<2>(0, 0), Vec<2>(2 * h, L));
-  solver.initialise();
+  auto column = uniaxialColumn(epp, L, v0, BoundaryKind::symmetry, true);
+  Solver<2>& solver = *column;
   const double K = E / (3 * (1 - 2 * nu)), G = E / (2 * (1 + nu));
   const double cL = std::sqrt((K + 4 * G / 3) / rho), cB = std::sqrt(K / rho);
   const double hel = Y * (1 - nu) / (1 - 2 * nu);
@@ -222,21 +222,9 @@ tangent_modulus = "0 MPa"
 // matched half-space transmits everything). After the wave has run to the free end and back, the column is at
 // rest and its strain energy has left through the face: less than 2 % of the kinetic energy may remain.
 TEST_CASE("sim: a non-reflecting face absorbs an impedance-matched impact: less than 2 % of the energy remains") {
-  const double h = 0.25e-3, s = 0.125e-3, L = 0.02, v0 = 5.0;
-  GridSpec<2> g;
-  g.cellSize = h;
-  g.lower = Vec<2>(0, 0);
-  g.upper = Vec<2>(2 * h, L + 2 * h);
-  g.boundary = {BoundaryKind::symmetry, BoundaryKind::symmetry, BoundaryKind::nonReflecting, BoundaryKind::free};
-  SolverOptions o;
-  o.axisymmetric = false;
-  Solver<2> solver(g, o, {makeSolidMaterial(card(kElasticAluminium, "elastic"))});
-  BodyFill<2> fill;
-  fill.spacing = s;
-  fill.axisymmetric = false;
-  fill.velocity = Vec<2>(0, -v0);
-  fillBox<2>(solver.particles(), solver.materials()[0], fill, Vec<2>(0, 0), Vec<2>(2 * h, L));
-  solver.initialise();
+  const double L = 0.02;
+  auto column = uniaxialColumn(kElasticAluminium, L, 5.0, BoundaryKind::nonReflecting, true);
+  Solver<2>& solver = *column;
   const EnergyBalance e0 = solver.energies();
   const double c = solver.materials()[0].referenceWaveSpeed();
   while (solver.time() < 3 * L / c) solver.step();
