@@ -141,35 +141,33 @@ PointUpdate SolidMaterial::update(PointState& s, const Mat3& D, const Mat3& W, d
 
   Mat3 sNew = Mat3::Zero();
   double dep = 0.0, flow = 0.0;
-  {
-    if (!s.failed) {
-      sNew = sOld + dt * (2.0 * shearModulus * Ddev + W * sOld - sOld * W);
-      if (strength->plastic()) {
-        // Rate-dependent radial return (seed 000 Eq. 9: the rate is the plastic strain rate dep/dt). Solve
-        // f(dep) = seqTrial - 3 G dep - y(ep + dep, dep / dt) = 0; f decreases with dep, f(0) > 0 when the trial
-        // state yields, and f(hi) <= 0 at hi = (seqTrial - y(ep, 0)) / 3G, so a safeguarded Newton converges.
-        const double seqTrial = std::sqrt(1.5 * doubleContraction(sNew, sNew));
-        const double y0 = strength->yieldStress(s.plasticStrain, 0.0, s.temperature);
-        if (seqTrial > y0) {
-          const double threeG = 3.0 * shearModulus;
-          const auto yieldAt = [&](double d) { return strength->yieldStress(s.plasticStrain + d, d / dt, s.temperature); };
-          double lo = 0.0, hi = threeG > 0 ? (seqTrial - y0) / threeG : 0.0;
-          dep = hi;
-          for (int it = 0; it < 30 && threeG > 0; ++it) {
-            const double y = yieldAt(dep);
-            const double f = seqTrial - threeG * dep - y;
-            if (std::fabs(f) <= 1e-10 * seqTrial || hi - lo <= 1e-14 * hi) break;
-            if (f > 0) lo = dep; else hi = dep;
-            const double delta = 1e-7 * dep + 1e-14;
-            const double slope = threeG + (yieldAt(dep + delta) - y) / delta;
-            double next = dep + f / slope;
-            if (!(next > lo && next < hi)) next = 0.5 * (lo + hi);
-            dep = next;
-          }
-          flow = yieldAt(dep);
-          sNew *= seqTrial > 0 ? flow / seqTrial : 0.0;
-          if (threeG <= 0) sNew.setZero();
+  if (!s.failed) {
+    sNew = sOld + dt * (2.0 * shearModulus * Ddev + W * sOld - sOld * W);
+    if (strength->plastic()) {
+      // Rate-dependent radial return (seed 000 Eq. 9: the rate is the plastic strain rate dep/dt). Solve
+      // f(dep) = seqTrial - 3 G dep - y(ep + dep, dep / dt) = 0; f decreases with dep, f(0) > 0 when the trial
+      // state yields, and f(hi) <= 0 at hi = (seqTrial - y(ep, 0)) / 3G, so a safeguarded Newton converges.
+      const double seqTrial = std::sqrt(1.5 * doubleContraction(sNew, sNew));
+      const double y0 = strength->yieldStress(s.plasticStrain, 0.0, s.temperature);
+      if (seqTrial > y0) {
+        const double threeG = 3.0 * shearModulus;
+        const auto yieldAt = [&](double d) { return strength->yieldStress(s.plasticStrain + d, d / dt, s.temperature); };
+        double lo = 0.0, hi = threeG > 0 ? (seqTrial - y0) / threeG : 0.0;
+        dep = hi;
+        for (int it = 0; it < 30 && threeG > 0; ++it) {
+          const double y = yieldAt(dep);
+          const double f = seqTrial - threeG * dep - y;
+          if (std::fabs(f) <= 1e-10 * seqTrial || hi - lo <= 1e-14 * hi) break;
+          if (f > 0) lo = dep; else hi = dep;
+          const double delta = 1e-7 * dep + 1e-14;
+          const double slope = threeG + (yieldAt(dep + delta) - y) / delta;
+          double next = dep + f / slope;
+          if (!(next > lo && next < hi)) next = 0.5 * (lo + hi);
+          dep = next;
         }
+        flow = yieldAt(dep);
+        sNew *= seqTrial > 0 ? flow / seqTrial : 0.0;
+        if (threeG <= 0) sNew.setZero();
       }
     }
   }

@@ -4,26 +4,7 @@ namespace blt::sim {
 
 template <int D>
 void Particles<D>::reserve(std::size_t n) {
-  position.reserve(n);
-  velocity.reserve(n);
-  halfSize.reserve(n);
-  mass.reserve(n);
-  initialVolume.reserve(n);
-  volume.reserve(n);
-  deformationGradient.reserve(n);
-  stress.reserve(n);
-  viscousPressure.reserve(n);
-  specificEnergy.reserve(n);
-  temperature.reserve(n);
-  plasticStrain.reserve(n);
-  damage.reserve(n);
-  soundSpeed.reserve(n);
-  plasticWork.reserve(n);
-  viscousWork.reserve(n);
-  failed.reserve(n);
-  active.reserve(n);
-  material.reserve(n);
-  body.reserve(n);
+  forEachArray([n](auto& v) { v.reserve(n); });
 }
 
 template <int D>

@@ -91,14 +91,6 @@ class ElasticStrength final : public StrengthModel {
   double hardening(double, double, double) const override { return 0; }
 };
 
-// No shear strength at all (hydrodynamic); the deviatoric stress stays zero.
-class NoStrength final : public StrengthModel {
- public:
-  bool plastic() const override { return true; }
-  double yieldStress(double, double, double) const override { return 0; }
-  double hardening(double, double, double) const override { return 0; }
-};
-
 // sigma_y = sigma_y0 + H ep with the plastic modulus H = E Et / (E - Et) from the tangent modulus Et.
 class BilinearStrength final : public StrengthModel {
  public:
