@@ -54,6 +54,8 @@ constexpr std::size_t kParallelThreshold = 4000;
 constexpr long kReorderInterval = 25;
 // Share of a node's mass below which a body takes no part in the contact correction there.
 constexpr double kContactMassFraction = 0.05;
+// Bits of corrected_: the node's velocity was changed by the contact correction, by the dashpots.
+constexpr std::uint8_t kByContact = 1, kByBoundary = 2;
 }  // namespace
 
 template <int D>
@@ -84,6 +86,10 @@ void Solver<D>::initialise() {
   for (int f = 0; f < 2 * D; ++f)
     walls_[f] = spec_.boundary[f] == BoundaryKind::fixed || spec_.boundary[f] == BoundaryKind::symmetry;
   if (trackBoundary_) boundaryDelta_.assign(fields, Vec<D>::Zero());
+  if (bodies_ > 1 || trackBoundary_)
+    corrected_.assign(fields, 0);
+  else
+    corrected_.clear();
   stencil_.resize(n);
   slabOf_.assign(n, 0);
   order_.assign(n, 0);
@@ -165,6 +171,7 @@ void Solver<D>::computeShapeFunctions() {
   const double h = spec_.cellSize;
   const ShapeFunctionKind kind = options_.shapeFunction;
   const int ns = stencilSize(kind);
+  const double invH = 1.0 / h;
 #pragma omp parallel for schedule(static) num_threads(threads_) if (parallel_)
   for (long p = 0; p < static_cast<long>(n); ++p) {
     if (!particles_.active[p]) {
@@ -186,9 +193,10 @@ void Solver<D>::computeShapeFunctions() {
       const double lp = kind == ShapeFunctionKind::linear ? 0.0 : particles_.halfSize[p][a];
       xi = std::clamp(xi, lp, len - lp - 1e-12 * h);
       const int base = stencilBase(kind, xi, h, lp, nodes_[a]);
+      const double invHLp = kind == ShapeFunctionKind::linear ? 0.0 : 1.0 / (h * lp);
       for (int k = 0; k < kStencil; ++k) {
         if (k < ns)
-          stencilNode(kind, xi, h, lp, base + k, st.w[a][k], st.g[a][k]);
+          stencilNode(kind, xi, h, lp, invH, invHLp, base + k, st.w[a][k], st.g[a][k]);
         else
           st.w[a][k] = st.g[a][k] = 0.0;
       }
@@ -215,41 +223,34 @@ void Solver<D>::computeShapeFunctions() {
     if (slabOf_[p] >= 0) order_[static_cast<std::size_t>(cursor[slabOf_[p]]++)] = static_cast<int>(p);
 }
 
-// Calls f(nodeOffset, w, grad) for every node of particle p's stencil; NS nodes per axis, known at compile
-// time so that the loops unroll.
+// The stencil's nodes come in rows along axis 0. Node a of a row has the weight w0[a] * w and the gradient
+// (g0[a] * w, w0[a] * g1, w0[a] * g2): the factors across axis 0 are the same along the whole row, so the stages
+// below work on a row's factors once and touch each node with a few products of w0[a] and g0[a].
+// Calls f(rowNode, w, g1, g2) for every row of the stencil: rowNode is the row's first node, w the product of
+// the weights on axes 1..D-1, gk the same product with axis k's gradient in place of its weight (g2 = 0 in
+// 2D). NS nodes per axis, known at compile time so that the loops unroll.
+// A rule for the hot loops: GCC assembles a small vector from separately computed scalars (or a vector with one
+// element changed) on the stack, and the wide load after the narrow stores stalls store forwarding, which cost
+// the scatter 30 to 60 %. Keep such values scalar, or write whole-vector expressions (see particlesToGrid).
 template <int D, int NS, class F>
-inline void forEachNodeOf(const Stencil<D>& st, const Eigen::Array<long, D, 1>& strides, F&& f) {
+inline void forEachRowOf(const Stencil<D>& st, const Eigen::Array<long, D, 1>& strides, F&& f) {
   if constexpr (D == 3) {
     for (int c = 0; c < NS; ++c)
-      for (int b = 0; b < NS; ++b) {
-        const long row = st.node + c * strides[2] + b * strides[1];
-        const double wyz = st.w[1][b] * st.w[2][c];
-        const double gyz = st.g[1][b] * st.w[2][c];
-        const double wygz = st.w[1][b] * st.g[2][c];
-        for (int a = 0; a < NS; ++a) {
-          const double w = st.w[0][a] * wyz;
-          const Vec<3> g(st.g[0][a] * wyz, st.w[0][a] * gyz, st.w[0][a] * wygz);
-          f(row + a, w, g);
-        }
-      }
+      for (int b = 0; b < NS; ++b)
+        f(st.node + c * strides[2] + b * strides[1], st.w[1][b] * st.w[2][c], st.g[1][b] * st.w[2][c],
+          st.w[1][b] * st.g[2][c]);
   } else {
-    for (int b = 0; b < NS; ++b) {
-      const long row = st.node + b * strides[1];
-      for (int a = 0; a < NS; ++a) {
-        const double w = st.w[0][a] * st.w[1][b];
-        const Vec<2> g(st.g[0][a] * st.w[1][b], st.w[0][a] * st.g[1][b]);
-        f(row + a, w, g);
-      }
-    }
+    for (int b = 0; b < NS; ++b) f(st.node + b * strides[1], st.w[1][b], st.g[1][b], 0.0);
   }
 }
 
-template <int D, class F>
-inline void forEachNode(const Stencil<D>& st, const Eigen::Array<long, D, 1>& strides, int ns, F&& f) {
+// Runs stage<NS>() with the stencil size of the shape function as a compile-time constant.
+template <class F>
+inline void withStencilSize(int ns, F&& stage) {
   if (ns == 3)
-    forEachNodeOf<D, 3>(st, strides, f);
+    stage(std::integral_constant<int, 3>{});
   else
-    forEachNodeOf<D, 2>(st, strides, f);
+    stage(std::integral_constant<int, 2>{});
 }
 
 // Runs body(p) for every active particle, slab parity by parity, so that scatters from concurrent threads
@@ -282,18 +283,36 @@ void Solver<D>::particlesToGrid() {
     const double m = particles_.mass[p];
     const Vec<D> mv = m * particles_.velocity[p];
     const double V = particles_.volume[p];
-    Mat3 sig = particles_.stress[p];
-    sig.diagonal().array() -= particles_.viscousPressure[p];
-    // f_I = -V (sigma grad N_I), plus -V sigma_tt N_I / r on the radial component in axisymmetric runs.
-    const double hoopForce = hoop ? -V * sig(2, 2) / particles_.position[p][0] : 0.0;
-    const Eigen::Matrix<double, D, D> minusVs = -V * sig.template topLeftCorner<D, D>();
-    forEachNode<D>(stencil_[p], strides_, ns, [&](long node, double w, const Vec<D>& g) {
-      ScatterNode<D>& n = scatter_[off + node];
-      n.mass += w * m;
-      n.momentum += w * mv;
-      n.force.noalias() += minusVs * g;
-      if constexpr (D == 2) n.force[0] += hoopForce * w;
-      if (gradients) n.gradient += m * g;
+    const Mat3& sig = particles_.stress[p];
+    const double q = particles_.viscousPressure[p];
+    // f_I = -V ((sigma - q) grad N_I), plus -V (sigma_tt - q) N_I / r on the radial component in axisymmetric
+    // runs.
+    const double hoopForce = hoop ? V * (q - sig(2, 2)) / particles_.position[p][0] : 0.0;
+    const Eigen::Matrix<double, D, D> minusVs =
+        V * (q * Eigen::Matrix<double, D, D>::Identity() - sig.template topLeftCorner<D, D>());
+    const Stencil<D>& st = stencil_[p];
+    withStencilSize(ns, [&](auto NS) {
+      forEachRowOf<D, NS>(st, strides_, [&](long row, double rw, double g1, double g2) {
+        const double mw = m * rw;
+        const Vec<D> mvw = rw * mv;
+        const Vec<D> fx = rw * minusVs.col(0);
+        Vec<D> ft = g1 * minusVs.col(1);
+        if constexpr (D == 3) ft += g2 * minusVs.col(D - 1);
+        if constexpr (D == 2) ft += (hoopForce * rw) * Vec<D>::UnitX();
+        const double mg1 = m * g1, mg2 = m * g2;
+        for (int a = 0; a < NS; ++a) {
+          const double w0 = st.w[0][a], g0 = st.g[0][a];
+          ScatterNode<D>& n = scatter_[off + row + a];
+          n.mass += w0 * mw;
+          n.momentum += w0 * mvw;
+          n.force += g0 * fx + w0 * ft;
+          if (gradients) {
+            n.gradient[0] += g0 * mw;
+            n.gradient[1] += w0 * mg1;
+            if constexpr (D == 3) n.gradient[D - 1] += w0 * mg2;
+          }
+        }
+      });
     });
   });
 }
@@ -348,10 +367,7 @@ void Solver<D>::applyVelocityConditions(bool integrate) {
     for (int b = 0; b < B; ++b) {
       const long i = b * N + n;
       m[b] = scatter_[i].mass;
-      if (integrate) {
-        if (contact) contactDelta_[i].setZero();
-        if (trackBoundary_) boundaryDelta_[i].setZero();
-      }
+      if (integrate && !corrected_.empty()) corrected_[i] = 0;
       if (m[b] <= massEpsilon_) {
         velocity_[i].setZero();
         velocityChange_[i].setZero();
@@ -408,8 +424,11 @@ void Solver<D>::applyVelocityConditions(bool integrate) {
       for (int k = 0; k < contactCount; ++k) before[touching[k]] = v[touching[k]];
       correctContact<D>(v, m, normal, touching, contactCount, mu);
       if (integrate)
-        for (int k = 0; k < contactCount; ++k)
-          contactDelta_[touching[k] * N + n] = v[touching[k]] - before[touching[k]];
+        for (int k = 0; k < contactCount; ++k) {
+          const long i = touching[k] * N + n;
+          contactDelta_[i] = v[touching[k]] - before[touching[k]];
+          if (!contactDelta_[i].isZero(0.0)) corrected_[i] |= kByContact;
+        }
     }
     if (anyBoundary) {
       for (int k = 0; k < count; ++k) {
@@ -417,7 +436,10 @@ void Solver<D>::applyVelocityConditions(bool integrate) {
         const double cn = integrate ? 2.0 * bodyWaveSpeed_[b] * dt / h : 0.0;
         const double cs = integrate ? 2.0 * bodyShearSpeed_[b] * dt / h : 0.0;
         const Vec<D> dashpot = applyFaceConditions<D>(v[b], spec_.boundary, index, nodes_, cn, cs);
-        if (integrate && trackBoundary_) boundaryDelta_[b * N + n] = dashpot;
+        if (integrate && trackBoundary_ && !dashpot.isZero(0.0)) {
+          boundaryDelta_[b * N + n] = dashpot;
+          corrected_[b * N + n] |= kByBoundary;
+        }
       }
     }
     for (int k = 0; k < count; ++k) {
@@ -427,7 +449,7 @@ void Solver<D>::applyVelocityConditions(bool integrate) {
       // MUSL remap: where the contact correction acted in this step, the body keeps the corrected velocity. The
       // remapped one re-mixes momenta that FLIP left off the contact constraint, and a strain increment taken
       // from it gained energy (two elastic spheres rebounded with 10 % more than they had).
-      if (integrate || !(contact && contactDelta_[i].squaredNorm() > 0)) velocity_[i] = v[b];
+      if (integrate || !(contact && (corrected_[i] & kByContact))) velocity_[i] = v[b];
     }
   }
 }
@@ -447,18 +469,27 @@ void Solver<D>::gridToParticles() {
   const long N = static_cast<long>(nodeCount_);
   const long count = static_cast<long>(activeCount_);
   const bool axisymmetric = D == 2 && options_.axisymmetric;
-  const bool contact = bodies_ > 1, boundary = trackBoundary_;
+  const bool contact = bodies_ > 1, boundary = trackBoundary_, corrections = contact || boundary;
   double contactSum = 0, boundarySum = 0;
 #pragma omp parallel for schedule(static) reduction(+ : contactSum, boundarySum) num_threads(threads_) if (parallel_)
   for (long k = 0; k < count; ++k) {
     const int p = order_[static_cast<std::size_t>(k)];
     const long off = bodies_ > 1 ? particles_.body[p] * N : 0;
     Vec<D> vGrid = Vec<D>::Zero(), dv = Vec<D>::Zero(), dContact = Vec<D>::Zero(), dBoundary = Vec<D>::Zero();
-    forEachNode<D>(stencil_[p], strides_, ns, [&](long node, double w, const Vec<D>&) {
-      vGrid += w * velocity_[off + node];
-      dv += w * velocityChange_[off + node];
-      if (contact) dContact += w * contactDelta_[off + node];
-      if (boundary) dBoundary += w * boundaryDelta_[off + node];
+    const Stencil<D>& st = stencil_[p];
+    withStencilSize(ns, [&](auto NS) {
+      forEachRowOf<D, NS>(st, strides_, [&](long row, double rw, double g1, double g2) {
+        for (int a = 0; a < NS; ++a) {
+          const double w = st.w[0][a] * rw;
+          const long i = off + row + a;
+          vGrid += w * velocity_[i];
+          dv += w * velocityChange_[i];
+          if (corrections && corrected_[i]) {
+            if (corrected_[i] & kByContact) dContact += w * contactDelta_[i];
+            if (corrected_[i] & kByBoundary) dBoundary += w * boundaryDelta_[i];
+          }
+        }
+      });
     });
     Vec<D>& v = particles_.velocity[p];
     v = flip * (v + dv) + (1.0 - flip) * vGrid;
@@ -492,8 +523,13 @@ void Solver<D>::remapMomentum() {
   scatterByColour([&](int p) {
     const long off = bodies_ > 1 ? static_cast<long>(particles_.body[p]) * static_cast<long>(nodeCount_) : 0;
     const Vec<D> mv = particles_.mass[p] * particles_.velocity[p];
-    forEachNode<D>(stencil_[p], strides_, ns,
-                   [&](long node, double w, const Vec<D>&) { scatter_[off + node].momentum += w * mv; });
+    const Stencil<D>& st = stencil_[p];
+    withStencilSize(ns, [&](auto NS) {
+      forEachRowOf<D, NS>(st, strides_, [&](long row, double rw, double g1, double g2) {
+        const Vec<D> mvw = rw * mv;
+        for (int a = 0; a < NS; ++a) scatter_[off + row + a].momentum += st.w[0][a] * mvw;
+      });
+    });
   });
   applyVelocityConditions(false);
 }
@@ -516,10 +552,21 @@ void Solver<D>::updateStress() {
     const long off = bodies_ > 1 ? particles_.body[p] * N : 0;
     Mat3 L = Mat3::Zero();
     double vr = 0;
-    forEachNode<D>(stencil_[p], strides_, ns, [&](long node, double w, const Vec<D>& g) {
-      const Vec<D>& v = velocity_[off + node];
-      L.template topLeftCorner<D, D>().noalias() += v * g.transpose();
-      if constexpr (D == 2) vr += w * v[0];
+    const Stencil<D>& st = stencil_[p];
+    withStencilSize(ns, [&](auto NS) {
+      forEachRowOf<D, NS>(st, strides_, [&](long row, double rw, double g1, double g2) {
+        // L = sum v g^T; along a row g = (g0 rw, w0 g1, w0 g2), so two sums of v along the row suffice.
+        Vec<D> byWeight = Vec<D>::Zero(), byGradient = Vec<D>::Zero();
+        for (int a = 0; a < NS; ++a) {
+          const Vec<D>& v = velocity_[off + row + a];
+          byWeight += st.w[0][a] * v;
+          byGradient += st.g[0][a] * v;
+        }
+        L.template block<D, 1>(0, 0) += rw * byGradient;
+        L.template block<D, 1>(0, 1) += g1 * byWeight;
+        if constexpr (D == 3) L.template block<D, 1>(0, D - 1) += g2 * byWeight;
+        if constexpr (D == 2) vr += rw * byWeight[0];
+      });
     });
     if (hoop) L(2, 2) = vr / particles_.position[p][0];
 
@@ -602,7 +649,8 @@ std::size_t Solver<D>::memoryBytes() const {
   const std::size_t grid = scatter_.capacity() * sizeof(ScatterNode<D>) +
                            (velocity_.capacity() + velocityChange_.capacity() + contactDelta_.capacity() +
                             boundaryDelta_.capacity()) *
-                               sizeof(Vec<D>);
+                               sizeof(Vec<D>) +
+                           corrected_.capacity();
   const std::size_t caches = stencil_.capacity() * sizeof(Stencil<D>) +
                              (slabOf_.capacity() + order_.capacity() + slabStart_.capacity() + cursor_.capacity()) *
                                  sizeof(int);

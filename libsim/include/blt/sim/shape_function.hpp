@@ -15,12 +15,12 @@ enum class ShapeFunctionKind { linear, uGimp };
 
 inline constexpr int kStencil = 3;  // nodes per axis touched by one particle
 
-// One node's weight N_I and gradient dN_I/dx for the signed distance d = x_p - x_I (m), cell size h.
-inline void linearNode(double d, double h, double& w, double& g) {
+// One node's weight N_I and gradient dN_I/dx for the signed distance d = x_p - x_I (m), cell size h, invH = 1/h.
+inline void linearNode(double d, double h, double invH, double& w, double& g) {
   const double ad = std::fabs(d);
   if (ad < h) {
-    w = 1.0 - ad / h;
-    g = (d < 0 ? 1.0 : -1.0) / h;
+    w = 1.0 - ad * invH;
+    g = d < 0 ? invH : -invH;
   } else {
     w = 0.0;
     g = 0.0;
@@ -28,19 +28,21 @@ inline void linearNode(double d, double h, double& w, double& g) {
 }
 
 // uGIMP for a particle of half-width lp (requires lp <= h/2 so that three nodes cover the support h + lp).
-inline void uGimpNode(double d, double h, double lp, double& w, double& g) {
+// invH = 1/h and invHLp = 1/(h lp) come from the caller, which divides once per particle and axis instead of
+// twice per node.
+inline void uGimpNode(double d, double h, double lp, double invH, double invHLp, double& w, double& g) {
   const double ad = std::fabs(d);
   const double sgn = d < 0 ? -1.0 : 1.0;
   if (ad < lp) {
-    w = 1.0 - (d * d + lp * lp) / (2.0 * h * lp);
-    g = -d / (h * lp);
+    w = 1.0 - (d * d + lp * lp) * (0.5 * invHLp);
+    g = -d * invHLp;
   } else if (ad < h - lp) {
-    w = 1.0 - ad / h;
-    g = -sgn / h;
+    w = 1.0 - ad * invH;
+    g = -sgn * invH;
   } else if (ad < h + lp) {
     const double r = h + lp - ad;
-    w = r * r / (4.0 * h * lp);
-    g = -sgn * r / (2.0 * h * lp);
+    w = r * r * (0.25 * invHLp);
+    g = -sgn * r * (0.5 * invHLp);
   } else {
     w = 0.0;
     g = 0.0;
@@ -59,11 +61,12 @@ inline int stencilBase(ShapeFunctionKind k, double xi, double h, double lp, int 
 }
 
 // Weight and gradient of the stencil's node k.
-inline void stencilNode(ShapeFunctionKind k, double xi, double h, double lp, int node, double& w, double& g) {
+inline void stencilNode(ShapeFunctionKind k, double xi, double h, double lp, double invH, double invHLp, int node,
+                        double& w, double& g) {
   if (k == ShapeFunctionKind::linear)
-    linearNode(xi - node * h, h, w, g);
+    linearNode(xi - node * h, h, invH, w, g);
   else
-    uGimpNode(xi - node * h, h, lp, w, g);
+    uGimpNode(xi - node * h, h, lp, invH, invHLp, w, g);
 }
 
 }  // namespace blt::sim

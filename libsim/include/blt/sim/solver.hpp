@@ -158,6 +158,10 @@ class Solver {
   std::vector<ScatterNode<D>> scatter_;  // what particles-to-grid accumulates, one record per node and body
   std::vector<Vec<D>> velocity_, velocityChange_;
   std::vector<Vec<D>> contactDelta_, boundaryDelta_;  // velocity changes made by contact and by dashpots
+  // Per node and body, which of contactDelta_ and boundaryDelta_ hold this step's change (kByContact,
+  // kByBoundary); unmarked entries are stale. Few nodes are corrected, so grid to particles reads the deltas
+  // only there, and the grid update need not clear them everywhere.
+  std::vector<std::uint8_t> corrected_;
   bool trackBoundary_ = false;
   std::array<bool, 2 * D> walls_{};  // faces that material may not cross (fixed, symmetry)
   std::vector<double> bodyWaveSpeed_, bodyShearSpeed_;
