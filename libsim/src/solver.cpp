@@ -91,6 +91,7 @@ void Solver<D>::initialise() {
   else
     corrected_.clear();
   stencil_.resize(n);
+  stencilGradient_.resize(n);
   slabOf_.assign(n, 0);
   order_.assign(n, 0);
   slabAxis_ = 0;
@@ -180,6 +181,7 @@ void Solver<D>::computeShapeFunctions() {
     }
     const Vec<D>& x = particles_.position[p];
     Stencil<D>& st = stencil_[p];
+    StencilGradient<D>& sg = stencilGradient_[p];
     long node = 0;
     bool inside = true;
     for (int a = 0; a < D; ++a) {
@@ -196,9 +198,9 @@ void Solver<D>::computeShapeFunctions() {
       const double invHLp = kind == ShapeFunctionKind::linear ? 0.0 : 1.0 / (h * lp);
       for (int k = 0; k < kStencil; ++k) {
         if (k < ns)
-          stencilNode(kind, xi, h, lp, invH, invHLp, base + k, st.w[a][k], st.g[a][k]);
+          stencilNode(kind, xi, h, lp, invH, invHLp, base + k, st.w[a][k], sg.g[a][k]);
         else
-          st.w[a][k] = st.g[a][k] = 0.0;
+          st.w[a][k] = sg.g[a][k] = 0.0;
       }
       node += base * strides_[a];
       if (a == slabAxis_) slabOf_[p] = base / 2;
@@ -233,14 +235,26 @@ void Solver<D>::computeShapeFunctions() {
 // element changed) on the stack, and the wide load after the narrow stores stalls store forwarding, which cost
 // the scatter 30 to 60 %. Keep such values scalar, or write whole-vector expressions (see particlesToGrid).
 template <int D, int NS, class F>
-inline void forEachRowOf(const Stencil<D>& st, const Eigen::Array<long, D, 1>& strides, F&& f) {
+inline void forEachRowOf(const Stencil<D>& st, const StencilGradient<D>& sg, const Eigen::Array<long, D, 1>& strides,
+                         F&& f) {
   if constexpr (D == 3) {
     for (int c = 0; c < NS; ++c)
       for (int b = 0; b < NS; ++b)
-        f(st.node + c * strides[2] + b * strides[1], st.w[1][b] * st.w[2][c], st.g[1][b] * st.w[2][c],
-          st.w[1][b] * st.g[2][c]);
+        f(st.node + c * strides[2] + b * strides[1], st.w[1][b] * st.w[2][c], sg.g[1][b] * st.w[2][c],
+          st.w[1][b] * sg.g[2][c]);
   } else {
-    for (int b = 0; b < NS; ++b) f(st.node + b * strides[1], st.w[1][b], st.g[1][b], 0.0);
+    for (int b = 0; b < NS; ++b) f(st.node + b * strides[1], st.w[1][b], sg.g[1][b], 0.0);
+  }
+}
+
+// The same rows for the stages that need only the weights: f(rowNode, w).
+template <int D, int NS, class F>
+inline void forEachWeightRowOf(const Stencil<D>& st, const Eigen::Array<long, D, 1>& strides, F&& f) {
+  if constexpr (D == 3) {
+    for (int c = 0; c < NS; ++c)
+      for (int b = 0; b < NS; ++b) f(st.node + c * strides[2] + b * strides[1], st.w[1][b] * st.w[2][c]);
+  } else {
+    for (int b = 0; b < NS; ++b) f(st.node + b * strides[1], st.w[1][b]);
   }
 }
 
@@ -291,8 +305,9 @@ void Solver<D>::particlesToGrid() {
     const Eigen::Matrix<double, D, D> minusVs =
         V * (q * Eigen::Matrix<double, D, D>::Identity() - sig.template topLeftCorner<D, D>());
     const Stencil<D>& st = stencil_[p];
+    const StencilGradient<D>& sg = stencilGradient_[p];
     withStencilSize(ns, [&](auto NS) {
-      forEachRowOf<D, NS>(st, strides_, [&](long row, double rw, double g1, double g2) {
+      forEachRowOf<D, NS>(st, sg, strides_, [&](long row, double rw, double g1, double g2) {
         const double mw = m * rw;
         const Vec<D> mvw = rw * mv;
         const Vec<D> fx = rw * minusVs.col(0);
@@ -301,7 +316,7 @@ void Solver<D>::particlesToGrid() {
         if constexpr (D == 2) ft += (hoopForce * rw) * Vec<D>::UnitX();
         const double mg1 = m * g1, mg2 = m * g2;
         for (int a = 0; a < NS; ++a) {
-          const double w0 = st.w[0][a], g0 = st.g[0][a];
+          const double w0 = st.w[0][a], g0 = sg.g[0][a];
           ScatterNode<D>& n = scatter_[off + row + a];
           n.mass += w0 * mw;
           n.momentum += w0 * mvw;
@@ -478,7 +493,7 @@ void Solver<D>::gridToParticles() {
     Vec<D> vGrid = Vec<D>::Zero(), dv = Vec<D>::Zero(), dContact = Vec<D>::Zero(), dBoundary = Vec<D>::Zero();
     const Stencil<D>& st = stencil_[p];
     withStencilSize(ns, [&](auto NS) {
-      forEachRowOf<D, NS>(st, strides_, [&](long row, double rw, double g1, double g2) {
+      forEachWeightRowOf<D, NS>(st, strides_, [&](long row, double rw) {
         for (int a = 0; a < NS; ++a) {
           const double w = st.w[0][a] * rw;
           const long i = off + row + a;
@@ -525,7 +540,7 @@ void Solver<D>::remapMomentum() {
     const Vec<D> mv = particles_.mass[p] * particles_.velocity[p];
     const Stencil<D>& st = stencil_[p];
     withStencilSize(ns, [&](auto NS) {
-      forEachRowOf<D, NS>(st, strides_, [&](long row, double rw, double g1, double g2) {
+      forEachWeightRowOf<D, NS>(st, strides_, [&](long row, double rw) {
         const Vec<D> mvw = rw * mv;
         for (int a = 0; a < NS; ++a) scatter_[off + row + a].momentum += st.w[0][a] * mvw;
       });
@@ -553,14 +568,15 @@ void Solver<D>::updateStress() {
     Mat3 L = Mat3::Zero();
     double vr = 0;
     const Stencil<D>& st = stencil_[p];
+    const StencilGradient<D>& sg = stencilGradient_[p];
     withStencilSize(ns, [&](auto NS) {
-      forEachRowOf<D, NS>(st, strides_, [&](long row, double rw, double g1, double g2) {
+      forEachRowOf<D, NS>(st, sg, strides_, [&](long row, double rw, double g1, double g2) {
         // L = sum v g^T; along a row g = (g0 rw, w0 g1, w0 g2), so two sums of v along the row suffice.
         Vec<D> byWeight = Vec<D>::Zero(), byGradient = Vec<D>::Zero();
         for (int a = 0; a < NS; ++a) {
           const Vec<D>& v = velocity_[off + row + a];
           byWeight += st.w[0][a] * v;
-          byGradient += st.g[0][a] * v;
+          byGradient += sg.g[0][a] * v;
         }
         L.template block<D, 1>(0, 0) += rw * byGradient;
         L.template block<D, 1>(0, 1) += g1 * byWeight;
@@ -652,6 +668,7 @@ std::size_t Solver<D>::memoryBytes() const {
                                sizeof(Vec<D>) +
                            corrected_.capacity();
   const std::size_t caches = stencil_.capacity() * sizeof(Stencil<D>) +
+                             stencilGradient_.capacity() * sizeof(StencilGradient<D>) +
                              (slabOf_.capacity() + order_.capacity() + slabStart_.capacity() + cursor_.capacity()) *
                                  sizeof(int);
   return particles_.bytes() + grid + caches;

@@ -78,10 +78,15 @@ struct EnergyBalance {
   double total() const { return kinetic + internal + contactDissipation + boundaryWork; }
 };
 
+// A particle's shape functions per axis: the weights with the stencil's first node, and apart from them the
+// gradients, which grid to particles and the remap do not read (they stream half the bytes).
 template <int D>
 struct Stencil {
   int node = 0;  // linear index of the stencil's first node
   double w[D][kStencil];
+};
+template <int D>
+struct StencilGradient {
   double g[D][kStencil];
 };
 
@@ -168,6 +173,7 @@ class Solver {
 
   // Per-particle caches and thread bins.
   std::vector<Stencil<D>> stencil_;
+  std::vector<StencilGradient<D>> stencilGradient_;
   std::vector<int> slabOf_;
   std::vector<int> order_;      // active particles sorted by slab
   std::vector<int> slabStart_;  // slab s holds order_[slabStart_[s] .. slabStart_[s+1])
