@@ -78,6 +78,7 @@ void Solver<D>::initialise() {
   scatter_.assign(fields, ScatterNode<D>{});
   velocity_.assign(fields, Vec<D>::Zero());
   velocityChange_.assign(fields, Vec<D>::Zero());
+  remappedMomentum_.assign(fields, Vec<D>::Zero());
   if (bodies_ > 1) {
     contactDelta_.assign(fields, Vec<D>::Zero());
   }
@@ -393,7 +394,7 @@ void Solver<D>::applyVelocityConditions(bool integrate) {
         v[b] = (scatter_[i].momentum + dt * scatter_[i].force) / m[b];
         velocityChange_[i] = vOld;  // holds the old velocity until the end of this node's update
       } else {
-        v[b] = scatter_[i].momentum / m[b];
+        v[b] = remappedMomentum_[i] / m[b];
       }
       if (count < kMaxBodies) ids[count++] = b;
     }
@@ -533,7 +534,7 @@ template <int D>
 void Solver<D>::remapMomentum() {
   const std::size_t fields = scatter_.size();
 #pragma omp parallel for schedule(static) num_threads(threads_) if (parallel_)
-  for (long i = 0; i < static_cast<long>(fields); ++i) scatter_[i].momentum.setZero();
+  for (long i = 0; i < static_cast<long>(fields); ++i) remappedMomentum_[i].setZero();
   const int ns = stencilSize(options_.shapeFunction);
   scatterByColour([&](int p) {
     const long off = bodies_ > 1 ? static_cast<long>(particles_.body[p]) * static_cast<long>(nodeCount_) : 0;
@@ -542,7 +543,7 @@ void Solver<D>::remapMomentum() {
     withStencilSize(ns, [&](auto NS) {
       forEachWeightRowOf<D, NS>(st, strides_, [&](long row, double rw) {
         const Vec<D> mvw = rw * mv;
-        for (int a = 0; a < NS; ++a) scatter_[off + row + a].momentum += st.w[0][a] * mvw;
+        for (int a = 0; a < NS; ++a) remappedMomentum_[off + row + a] += st.w[0][a] * mvw;
       });
     });
   });
@@ -663,7 +664,7 @@ long Solver<D>::firstNonFiniteParticle() const {
 template <int D>
 std::size_t Solver<D>::memoryBytes() const {
   const std::size_t grid = scatter_.capacity() * sizeof(ScatterNode<D>) +
-                           (velocity_.capacity() + velocityChange_.capacity() + contactDelta_.capacity() +
+                           (velocity_.capacity() + velocityChange_.capacity() + remappedMomentum_.capacity() + contactDelta_.capacity() +
                             boundaryDelta_.capacity()) *
                                sizeof(Vec<D>) +
                            corrected_.capacity();
