@@ -600,15 +600,14 @@ void Solver<D>::updateStress() {
     const double q = trD < 0 ? rho * h * (visc.quadratic * h * trD * trD - visc.linear * c * trD) : 0.0;
 
     const SolidMaterial& mat = materials_[particles_.material[p]];
-    PointState s;
-    s.stress = particles_.stress[p];
-    s.density = rho;
-    s.specificEnergy = particles_.specificEnergy[p];
-    s.temperature = particles_.temperature[p];
-    s.plasticStrain = particles_.plasticStrain[p];
-    s.damage = particles_.damage[p];
-    s.failed = particles_.failed[p] != 0;
-    s.deformationGradient = F;
+    PointState s{.stress = particles_.stress[p],
+                 .density = rho,
+                 .specificEnergy = particles_.specificEnergy[p],
+                 .temperature = particles_.temperature[p],
+                 .plasticStrain = particles_.plasticStrain[p],
+                 .damage = particles_.damage[p],
+                 .failed = particles_.failed[p] != 0,
+                 .deformationGradient = F};
     const PointUpdate u = mat.update(s, Dm, W, dt, q);
     particles_.stress[p] = s.stress;
     particles_.specificEnergy[p] = s.specificEnergy;
