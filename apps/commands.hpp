@@ -11,5 +11,6 @@ void registerUnitsCommand(CLI::App& app);                  // units.cpp
 void registerMaterialsCommand(CLI::App& app);              // materials.cpp
 void registerBleCommand(CLI::App& app);                    // ble.cpp
 void registerSimCommand(CLI::App& app);                    // sim.cpp
+void registerSimScenarioCommands(CLI::App& sim);          // sim_scenario.cpp: sim run, sim bisect
 void registerBenchCommand(CLI::App& app);                  // sim.cpp
 }  // namespace blt::cli

@@ -1,6 +1,6 @@
 // blt sim example: built-in solver cases with known answers, run with full output (ParaView series, energy
 // history, run summary). blt bench sim / blt bench taylor: speed and Taylor-bar figures of the MPM solver.
-// Scenario files (blt sim run) come with issue 5.
+// Scenario files: sim_scenario.cpp (blt sim run, blt sim bisect).
 #include <sys/resource.h>
 #include <unistd.h>
 
@@ -265,8 +265,9 @@ void benchTaylor(const BenchTaylorOptions& o) {
 }  // namespace
 
 void registerSimCommand(CLI::App& app) {
-  auto* sim = app.add_subcommand("sim", "MPM impact solver: built-in example cases (scenario files: issue 5)");
+  auto* sim = app.add_subcommand("sim", "MPM impact solver: scenarios (run, bisect) and built-in example cases");
   sim->require_subcommand(1);
+  registerSimScenarioCommands(*sim);
   auto* example = sim->add_subcommand("example", "Run a built-in case with known answers and write its output");
   example->require_subcommand(1);
   auto to = std::make_shared<TaylorOptions>();

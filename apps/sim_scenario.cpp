@@ -1,0 +1,171 @@
+// blt sim run / blt sim bisect: impact scenarios (data/scenarios) to their perforation verdict, and bisection
+// on the projectile's diameter or velocity for the ballistic limit.
+#include <cmath>
+#include <cstdio>
+#include <iostream>
+#include <memory>
+
+#include "blt/sim/impact.hpp"
+#include "cli_support.hpp"
+#include "commands.hpp"
+
+namespace blt::cli {
+
+namespace {
+
+using namespace blt::sim;
+
+struct ScenarioOptions {
+  std::string file;
+  std::vector<std::string> settings;
+  std::string out;
+  int threads = 0;
+  bool json = false, quiet = false;
+};
+
+void addScenarioOptions(CLI::App& cmd, ScenarioOptions& o) {
+  cmd.add_option("scenario", o.file, "Scenario file (TOML, see data/scenarios/README.md)")->required();
+  cmd.add_option("--set", o.settings,
+                 "KEY=VALUE on top of the file, repeatable: projectile.diameter=1.2mm, projectile.velocity=4.03km/s, "
+                 "projectile.angle=45deg, target.layer.2.gap_before=1.75mm (layer by number from the front, or by "
+                 "name), run.mode=3d, run.max_time=8us, solver.friction=0.1");
+  cmd.add_option("--out", o.out, "Output directory: ParaView series (NAME.pvd), energy history CSV, summary JSON");
+  cmd.add_option("--threads", o.threads, "OpenMP threads (default: all cores; several runs at once: 1 each)");
+  cmd.add_flag("--quiet", o.quiet, "No progress lines");
+  addJsonFlag(cmd, o.json);
+}
+
+ImpactRunOptions runOptions(const ScenarioOptions& o) {
+  if (o.threads < 0)
+    throw InputError(InputLocation::flag("--threads"), "thread count must not be negative", "1, 2, ... (0: all cores)");
+  ImpactRunOptions ro;
+  ro.outputDirectory = o.out;
+  ro.threads = o.threads;
+  if (!o.quiet)
+    ro.progress = [](const RunProgress& p) {
+      std::fprintf(stderr, "  step %ld  t = %.2f / %.2f us  dt = %.3g ns  %zu particles  wall %.1f s\n", p.step,
+                   p.time * 1e6, p.endTime * 1e6, p.timeStep * 1e9, p.activeParticles, p.wallSeconds);
+    };
+  return ro;
+}
+
+void describeScenario(const ImpactScenario& sc) {
+  const ProjectileSpec& p = sc.projectile;
+  std::fprintf(stderr, "%s: %s, %.4g mm %s %s at %s, %.4g deg; %zu layers; to %.4g us\n", sc.name.c_str(),
+               toString(sc.resolvedMode()), p.diameter * 1e3, p.material.c_str(), toString(p.shape),
+               units::format(p.velocity, p.velocity >= 1000 ? "km/s" : "m/s", 4).c_str(), p.angle * 180 / M_PI,
+               sc.target.layers.size(), sc.run.maxTime * 1e6);
+}
+
+void printImpact(const nlohmann::json& d) {
+  std::printf("verdict: %s (%s)%s at %.3g us\n", d["perforated"].get<bool>() ? "PERFORATED" : "not perforated",
+              d["verdict_reason"].get<std::string>().c_str(), d["settled"].get<bool>() ? ", settled" : ", not settled",
+              d["time_s"].get<double>() * 1e6);
+  if (d["residual_velocity_m_s"].get<double>() > 0)
+    std::printf("residual velocity: %.4g m/s (largest fragment behind the rear wall, %.4g mg)\n",
+                d["residual_velocity_m_s"].get<double>(), d["residual_fragment_mass_kg"].get<double>() * 1e6);
+  std::printf("hole sizes (D_h x D_v):\n");
+  for (std::size_t i = 0; i < d["layers"].size(); ++i)
+    std::printf("  %-12s %.3g x %.3g mm\n", d["layers"][i].get<std::string>().c_str(),
+                d["hole_size_mm"][i][0].get<double>(), d["hole_size_mm"][i][1].get<double>());
+  std::printf("%s, %zu particles, %ld steps, wall time %.2f s\n", d["model"].get<std::string>().c_str(),
+              d["particles"].get<std::size_t>(), d["steps"].get<long>(), d["wall_time_s"].get<double>());
+}
+
+void runScenario(const ScenarioOptions& o) {
+  const ImpactScenario sc = loadScenario(o.file, o.settings);
+  if (!o.json) describeScenario(sc);
+  const ImpactResult r = runImpact(sc, runOptions(o));
+  if (o.json) return printJson(r.summary);
+  if (r.status == RunStatus::unstable) std::printf("run went unstable: %s\n", r.message.c_str());
+  printImpact(r.summary);
+  if (!o.out.empty()) std::printf("files in %s/ (open %s.pvd in ParaView)\n", o.out.c_str(), sc.name.c_str());
+}
+
+struct BisectCliOptions {
+  ScenarioOptions scenario;
+  std::string on = "diameter";
+  std::string lo, hi, tol;
+  bool trustBracket = false;
+  int maxRuns = 40;
+};
+
+void runBisect(const BisectCliOptions& o) {
+  const ImpactScenario sc = loadScenario(o.scenario.file, o.scenario.settings);
+  BisectionOptions bo;
+  if (o.on != "diameter" && o.on != "velocity")
+    throw InputError(InputLocation::flag("--on"), "unknown variable '" + o.on + "'", "diameter or velocity");
+  bo.variable = o.on == "diameter" ? BisectVariable::diameter : BisectVariable::velocity;
+  const units::Dimension dim = bo.variable == BisectVariable::diameter ? units::length : units::velocity;
+  bo.lower = units::parse(o.lo, dim, InputLocation::flag("--lo"));
+  bo.upper = units::parse(o.hi, dim, InputLocation::flag("--hi"));
+  bo.tolerance = units::parse(o.tol, dim, InputLocation::flag("--tol"));
+  bo.checkBracket = !o.trustBracket;
+  bo.maxRuns = o.maxRuns;
+  const char* unit = bo.variable == BisectVariable::diameter ? "mm" : "m/s";
+  const double scale = bo.variable == BisectVariable::diameter ? 1e3 : 1.0;
+  if (!o.scenario.json) describeScenario(sc);
+  ScenarioOptions quietRuns = o.scenario;
+  quietRuns.quiet = true;  // one line per run instead
+  const auto onRun = [&](const BisectionRun& r) {
+    if (!o.scenario.json)
+      std::fprintf(stderr, "  run %s = %.5g %s: %s%s, %.1f s\n", o.on.c_str(), r.value * scale, unit,
+                   r.status == RunStatus::unstable ? "UNSTABLE" : (r.perforated ? "perforated" : "not perforated"),
+                   r.settled ? "" : " (not settled)", r.wallSeconds);
+  };
+  const BisectionResult b = bisectScenario(sc, bo, runOptions(quietRuns), onRun);
+  nlohmann::json runs = nlohmann::json::array();
+  for (const auto& r : b.runs) runs.push_back(r.summary);
+  const auto value = [&](double v) { return std::isnan(v) ? nlohmann::json() : nlohmann::json(v * scale); };
+  const std::string key = o.on == "diameter" ? "_mm" : "_m_s";
+  nlohmann::json doc = {{"scenario", sc.name},
+                        {"variable", o.on},
+                        {"resolved", b.resolved},
+                        {"message", b.message},
+                        {"largest_not_perforating" + key, value(b.largestSafe)},
+                        {"smallest_perforating" + key, value(b.smallestPerforating)},
+                        {"estimate" + key, b.resolved ? value(b.estimate()) : nlohmann::json()},
+                        {"half_width" + key, b.resolved ? value(0.5 * (b.smallestPerforating - b.largestSafe)) : nlohmann::json()},
+                        {"run_count", b.runs.size()},
+                        {"runs", runs}};
+  if (o.scenario.json) return printJson(doc);
+  if (!b.resolved) std::printf("not resolved: %s\n", b.message.c_str());
+  std::printf("largest %s not perforating: %s\nsmallest %s perforating: %s\n", o.on.c_str(),
+              std::isnan(b.largestSafe) ? "none found" : (std::to_string(b.largestSafe * scale) + " " + unit).c_str(),
+              o.on.c_str(),
+              std::isnan(b.smallestPerforating) ? "none found"
+                                                : (std::to_string(b.smallestPerforating * scale) + " " + unit).c_str());
+  if (b.resolved)
+    std::printf("ballistic limit: %.5g +- %.3g %s after %zu runs\n", b.estimate() * scale,
+                0.5 * (b.smallestPerforating - b.largestSafe) * scale, unit, b.runs.size());
+}
+
+}  // namespace
+
+void registerSimScenarioCommands(CLI::App& sim) {
+  auto so = std::make_shared<ScenarioOptions>();
+  auto* run = sim.add_subcommand(
+      "run",
+      "Run an impact scenario to its perforation verdict: perforated (rear wall), residual velocity, hole size of "
+      "every layer (D_h x D_v), energies. Example: blt sim run data/scenarios/fabric_al_corrected.toml --set "
+      "projectile.diameter=1.2mm --set projectile.velocity=4.03km/s --out case05");
+  addScenarioOptions(*run, *so);
+  run->callback([so] { runScenario(*so); });
+
+  auto bo = std::make_shared<BisectCliOptions>();
+  auto* bis = sim.add_subcommand(
+      "bisect",
+      "Ballistic limit by bisection: the largest diameter (or velocity) that does not perforate and the smallest "
+      "that does. Example: blt sim bisect data/scenarios/fabric_al_corrected.toml --on diameter --lo 0.8mm --hi "
+      "1.4mm --tol 0.02mm --set projectile.velocity=5km/s");
+  addScenarioOptions(*bis, bo->scenario);
+  bis->add_option("--on", bo->on, "What to bisect: diameter or velocity (default diameter)");
+  bis->add_option("--lo", bo->lo, "Lower end of the bracket, expected not to perforate (e.g. 0.8mm, 200m/s)")->required();
+  bis->add_option("--hi", bo->hi, "Upper end of the bracket, expected to perforate (e.g. 1.4mm, 400m/s)")->required();
+  bis->add_option("--tol", bo->tol, "Half-width of the final bracket (e.g. 0.02mm, 5m/s)")->required();
+  bis->add_flag("--trust-bracket", bo->trustBracket, "Do not run the bracket's ends first (two runs fewer)");
+  bis->add_option("--max-runs", bo->maxRuns, "Stop after this many runs (default 40)");
+  bis->callback([bo] { runBisect(*bo); });
+}
+
+}  // namespace blt::cli

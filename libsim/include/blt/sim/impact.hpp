@@ -1,0 +1,83 @@
+#pragma once
+// Running an impact scenario to its verdict, and bisection on the projectile's diameter or velocity for the
+// ballistic limit: the largest value that does not perforate and the smallest that does.
+
+#include <functional>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "blt/sim/run.hpp"
+#include "blt/sim/scenario.hpp"
+#include "blt/sim/verdict.hpp"
+
+namespace blt::sim {
+
+struct ImpactRunOptions {
+  std::string outputDirectory;  // empty: write nothing; else frames (PVD + VTU), energy CSV, summary JSON
+  int threads = 0;              // as SolverOptions::threads
+  std::function<void(const RunProgress&)> progress;
+};
+
+struct ImpactResult {
+  PerforationVerdict verdict;  // of the last state, with the hole of every layer
+  RunStatus status = RunStatus::completed;
+  std::string message;         // why the run ended early (settled verdict, instability)
+  ModelMode mode = ModelMode::axisymmetric;
+  std::size_t particles = 0;
+  double wallSeconds = 0, endTime = 0;
+  // Everything above and the run summary, in the units the keys name (perforated, residual_velocity_m_s,
+  // layers: names front to rear, hole_size_mm: [D_h, D_v] per layer in that order, energies of the whole target
+  // in J, wall_time_s, ...).
+  nlohmann::json summary;
+};
+
+// Builds the model for the scenario's mode, runs it to run.max_time or until the verdict is settled, and
+// measures. Throws InputError for a scenario that cannot be modelled.
+ImpactResult runImpact(const ImpactScenario& scenario, const ImpactRunOptions& options = {});
+
+enum class BisectVariable { diameter, velocity };
+const char* toString(BisectVariable v);
+
+struct BisectionOptions {
+  BisectVariable variable = BisectVariable::diameter;
+  double lower = 0, upper = 0;  // SI; perforation is expected at `upper` and not at `lower`
+  double tolerance = 0;         // SI; stop when the bracket's half-width is at most this
+  bool checkBracket = true;     // run both ends first (false: trust them, two runs fewer)
+  int maxRuns = 40;
+};
+
+struct BisectionRun {
+  double value = 0;  // SI
+  bool perforated = false;
+  bool settled = false;
+  RunStatus status = RunStatus::completed;
+  double residualVelocity = 0;  // m/s
+  double wallSeconds = 0;
+  nlohmann::json summary;
+};
+
+struct BisectionResult {
+  bool resolved = false;  // a bracket narrowed to the tolerance
+  std::string message;    // why it is not resolved (bracket does not hold, unstable run, run limit)
+  // The largest value that did not perforate and the smallest that did; NaN where no run showed it.
+  double largestSafe = std::numeric_limits<double>::quiet_NaN();
+  double smallestPerforating = std::numeric_limits<double>::quiet_NaN();
+  double estimate() const { return 0.5 * (largestSafe + smallestPerforating); }
+  std::vector<BisectionRun> runs;  // in the order made
+};
+
+// Bisection on a monotone outcome (larger values perforate). `evaluate` runs one value. `onRun` is told each
+// run as it finishes, so that nothing computed is lost if a later run fails.
+BisectionResult bisect(const BisectionOptions& options, const std::function<BisectionRun(double)>& evaluate,
+                       const std::function<void(const BisectionRun&)>& onRun = {});
+
+// The same with every run an impact of `scenario` with the projectile's diameter or velocity set to the value;
+// run k writes into OUTDIR/run_KK when an output directory is given.
+BisectionResult bisectScenario(const ImpactScenario& scenario, const BisectionOptions& options,
+                               const ImpactRunOptions& runOptions,
+                               const std::function<void(const BisectionRun&)>& onRun = {});
+
+}  // namespace blt::sim

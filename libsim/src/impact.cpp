@@ -1,0 +1,189 @@
+#include "blt/sim/impact.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+
+#include "blt/core/units.hpp"
+
+namespace blt::sim {
+
+const char* toString(BisectVariable v) { return v == BisectVariable::diameter ? "diameter" : "velocity"; }
+
+namespace {
+
+template <int D>
+ImpactResult runModel(const ImpactScenario& sc, const ImpactRunOptions& options) {
+  ImpactModel<D> model = buildImpactModel<D>(sc, options.threads);
+  Solver<D>& solver = *model.solver;
+  const double initialKinetic = solver.energies().kinetic;
+
+  RunOptions ro;
+  ro.endTime = sc.run.maxTime;
+  ro.outputDirectory = options.outputDirectory;
+  ro.name = sc.name;
+  ro.frames = sc.run.frames;
+  RunHooks<D> hooks;
+  hooks.progress = options.progress;
+  if (sc.run.stopWhenSettled)
+    hooks.stop = [&](const Solver<D>&) {
+      const PerforationVerdict v = assessPerforation<D>(model, sc.verdict, initialKinetic, false);
+      return v.settled ? "verdict settled: " + std::string(v.perforated ? "perforated" : "not perforated") + " (" +
+                             v.reason + ")"
+                       : std::string();
+    };
+  const RunResult r = run<D>(solver, ro, hooks);
+
+  ImpactResult result;
+  result.verdict = assessPerforation<D>(model, sc.verdict, initialKinetic, true);
+  result.status = r.status;
+  result.message = r.message;
+  result.mode = D == 2 ? ModelMode::axisymmetric : ModelMode::threeD;
+  result.particles = solver.particles().size();
+  result.wallSeconds = r.wallSeconds;
+  result.endTime = r.time;
+
+  const PerforationVerdict& v = result.verdict;
+  nlohmann::json layers = nlohmann::json::array(), holes = nlohmann::json::array();
+  for (const LayerHole& h : v.holes) {
+    layers.push_back(h.name);
+    holes.push_back({h.horizontal * 1e3, h.vertical * 1e3});
+  }
+  // Energies of the whole target: the model holds a half, a quarter or one radian of it.
+  const double whole = 1.0 / model.modelledFraction;
+  const auto energy = [&](const EnergyBalance& e) {
+    return nlohmann::json{{"kinetic_J", e.kinetic * whole},
+                          {"internal_J", e.internal * whole},
+                          {"plastic_work_J", e.plasticWork * whole},
+                          {"viscous_work_J", e.viscousWork * whole},
+                          {"contact_dissipation_J", e.contactDissipation * whole},
+                          {"boundary_work_J", e.boundaryWork * whole}};
+  };
+  nlohmann::json doc = {
+      {"scenario", sc.name},
+      {"scenario_file", sc.path},
+      {"settings", sc.settings},
+      {"mode", toString(result.mode)},
+      {"model", D == 2 ? "axisymmetric (r, z)" : (model.mirrorX ? "3D quarter model" : "3D half model")},
+      {"projectile_diameter_mm", sc.projectile.diameter * 1e3},
+      {"impact_velocity_m_s", sc.projectile.velocity},
+      {"impact_angle_deg", sc.projectile.angle * 180.0 / M_PI},
+      {"perforated", v.perforated},
+      {"settled", v.settled},
+      {"verdict_reason", v.reason},
+      {"rear_wall_opening", v.rearOpening},
+      {"mass_behind_rear_wall_kg", v.massBehind},
+      {"mass_behind_rear_wall_fraction", v.massBehindFraction},
+      {"residual_velocity_m_s", v.residualVelocity},
+      {"residual_fragment_mass_kg", v.residualFragmentMass},
+      {"layers", layers},
+      {"hole_size_mm", holes},
+      {"kinetic_energy_fraction", v.kineticFraction},
+      {"energy_initial", energy(r.initialEnergy)},
+      {"energy_final", energy(r.finalEnergy)},
+      {"status", toString(r.status)},
+      {"message", r.message},
+      {"time_s", r.time},
+      {"max_time_s", sc.run.maxTime},
+      {"steps", r.steps},
+      {"particles", result.particles},
+      {"wall_time_s", r.wallSeconds},
+      {"run", r.summary}};
+  result.summary = doc;
+  if (!options.outputDirectory.empty()) {
+    std::ofstream out(std::filesystem::path(options.outputDirectory) / (sc.name + "_summary.json"));
+    out << doc.dump(2) << "\n";
+  }
+  return result;
+}
+
+}  // namespace
+
+ImpactResult runImpact(const ImpactScenario& scenario, const ImpactRunOptions& options) {
+  return scenario.resolvedMode() == ModelMode::axisymmetric ? runModel<2>(scenario, options)
+                                                            : runModel<3>(scenario, options);
+}
+
+BisectionResult bisect(const BisectionOptions& o, const std::function<BisectionRun(double)>& evaluate,
+                       const std::function<void(const BisectionRun&)>& onRun) {
+  BisectionResult result;
+  const auto unit = o.variable == BisectVariable::diameter ? "mm" : "m/s";
+  if (!(o.lower < o.upper))
+    throw InputError(InputLocation::flag("--lo"), "the bracket's lower end must lie below its upper end",
+                     "--lo below --hi");
+  if (!(o.tolerance > 0)) throw InputError(InputLocation::flag("--tol"), "the tolerance must be positive");
+  // Runs one value; false when the run could not give a verdict (it is recorded all the same).
+  const auto probe = [&](double value) {
+    BisectionRun r = evaluate(value);
+    r.value = value;
+    result.runs.push_back(r);
+    if (onRun) onRun(r);
+    if (r.status == RunStatus::unstable) {
+      result.message = "the run at " + units::format(value, unit, 5) + " went unstable" +
+                       (r.summary.is_object() ? ": " + r.summary.value("message", std::string()) : std::string());
+      return false;
+    }
+    if (r.perforated) result.smallestPerforating = std::isnan(result.smallestPerforating) ? value : std::min(result.smallestPerforating, value);
+    else result.largestSafe = std::isnan(result.largestSafe) ? value : std::max(result.largestSafe, value);
+    return true;
+  };
+  double lo = o.lower, hi = o.upper;
+  if (o.checkBracket) {
+    if (!probe(lo)) return result;
+    if (result.runs.back().perforated) {
+      result.message = "the bracket does not hold: perforated already at the lower end " + units::format(lo, unit, 5);
+      return result;
+    }
+    if (!probe(hi)) return result;
+    if (!result.runs.back().perforated) {
+      result.message = "the bracket does not hold: not perforated at the upper end " + units::format(hi, unit, 5);
+      return result;
+    }
+  } else {
+    result.largestSafe = lo;
+    result.smallestPerforating = hi;
+  }
+  while (0.5 * (hi - lo) > o.tolerance) {
+    if (static_cast<int>(result.runs.size()) >= o.maxRuns) {
+      result.message = "stopped at the limit of " + std::to_string(o.maxRuns) + " runs";
+      return result;
+    }
+    const double mid = 0.5 * (lo + hi);
+    if (!probe(mid)) return result;
+    (result.runs.back().perforated ? hi : lo) = mid;
+  }
+  result.largestSafe = lo;
+  result.smallestPerforating = hi;
+  result.resolved = true;
+  return result;
+}
+
+BisectionResult bisectScenario(const ImpactScenario& scenario, const BisectionOptions& options,
+                               const ImpactRunOptions& runOptions,
+                               const std::function<void(const BisectionRun&)>& onRun) {
+  int index = 0;
+  const auto evaluate = [&](double value) {
+    ImpactScenario sc = scenario;
+    (options.variable == BisectVariable::diameter ? sc.projectile.diameter : sc.projectile.velocity) = value;
+    ImpactRunOptions ro = runOptions;
+    if (!ro.outputDirectory.empty()) {
+      char name[32];
+      std::snprintf(name, sizeof name, "run_%02d", index);
+      ro.outputDirectory = (std::filesystem::path(runOptions.outputDirectory) / name).string();
+    }
+    ++index;
+    const ImpactResult r = runImpact(sc, ro);
+    BisectionRun br;
+    br.perforated = r.verdict.perforated;
+    br.settled = r.verdict.settled;
+    br.status = r.status;
+    br.residualVelocity = r.verdict.residualVelocity;
+    br.wallSeconds = r.wallSeconds;
+    br.summary = r.summary;
+    return br;
+  };
+  return bisect(options, evaluate, onRun);
+}
+
+}  // namespace blt::sim

@@ -1,0 +1,397 @@
+#include "blt/sim/scenario.hpp"
+
+#include <toml++/toml.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <set>
+#include <sstream>
+
+#include "blt/analytic/laminate.hpp"
+#include "blt/core/units.hpp"
+
+namespace blt::sim {
+
+const char* toString(ProjectileShape s) { return s == ProjectileShape::sphere ? "sphere" : "cylinder"; }
+const char* toString(NoseShape s) {
+  switch (s) {
+    case NoseShape::flat: return "flat";
+    case NoseShape::hemispherical: return "hemispherical";
+    case NoseShape::conical: return "conical";
+    case NoseShape::ogival: return "ogival";
+  }
+  return "?";
+}
+const char* toString(ModelMode m) {
+  switch (m) {
+    case ModelMode::automatic: return "auto";
+    case ModelMode::threeD: return "3d";
+    case ModelMode::axisymmetric: return "axisymmetric";
+  }
+  return "?";
+}
+
+double TargetSpec::totalDepth() const {
+  double d = 0;
+  for (const auto& l : layers) d += l.gapBefore + l.thickness;
+  return d;
+}
+
+ModelMode ImpactScenario::resolvedMode() const {
+  if (run.mode != ModelMode::automatic) return run.mode;
+  return std::fabs(projectile.angle) < 1e-9 ? ModelMode::axisymmetric : ModelMode::threeD;
+}
+double ImpactScenario::projectileSpacing() const {
+  return projectile.spacing > 0 ? projectile.spacing : resolution.particleSpacing;
+}
+double ImpactScenario::layerSpacing(std::size_t layer) const {
+  const double s = target.layers.at(layer).spacing;
+  return s > 0 ? s : resolution.particleSpacing;
+}
+double ImpactScenario::cellSize() const {
+  return resolution.cellSize > 0 ? resolution.cellSize : 2.0 * resolution.particleSpacing;
+}
+
+namespace {
+
+// Reads one table of the scenario: every key it is asked for is marked, and finish() rejects the rest. Nodes
+// that a setting put there have no source line; their errors name the --set flag instead of the file.
+class TableReader {
+ public:
+  TableReader(const toml::table& table, std::string path, std::string sourceName)
+      : table_(table), path_(std::move(path)), source_(std::move(sourceName)) {}
+
+  InputLocation at(const std::string& key) const {
+    const std::string full = path_.empty() ? key : path_ + "." + key;
+    const toml::node* n = table_.get(key);
+    if (n && n->source().begin.line == 0) return InputLocation{"--set", std::nullopt, full};
+    InputLocation l = InputLocation::file(source_, std::nullopt, full);
+    if (n) l.line = static_cast<int>(n->source().begin.line);
+    return l;
+  }
+  const toml::node* get(const std::string& key) {
+    seen_.insert(key);
+    return table_.get(key);
+  }
+  std::string string(const std::string& key, const std::string& fallback, bool required = false) {
+    const toml::node* n = get(key);
+    if (!n) {
+      if (required) throw InputError(at(key), "the required key is missing");
+      return fallback;
+    }
+    if (auto s = n->as_string()) return s->get();
+    throw InputError(at(key), "must be a string");
+  }
+  // A quantity with a unit ("1.2 mm"); dimensionless quantities may be plain numbers.
+  double quantity(const std::string& key, const units::Dimension& dim, double fallback, bool required = false) {
+    const toml::node* n = get(key);
+    if (!n) {
+      if (required)
+        throw InputError(at(key), "the required key is missing", "e.g. \"" + units::example(dim) + "\"");
+      return fallback;
+    }
+    if (auto s = n->as_string()) return units::parse(s->get(), dim, at(key));
+    if (auto v = n->value<double>()) {
+      if (dim == units::dimensionless) return *v;
+      throw InputError(at(key), "the number has no unit; a unit is required",
+                       "a " + units::describe(dim) + " such as \"" + units::example(dim) + "\"");
+    }
+    throw InputError(at(key), "not a quantity", "a string with a unit such as \"" + units::example(dim) + "\"");
+  }
+  double positive(const std::string& key, const units::Dimension& dim, double fallback, bool required = false) {
+    const double v = quantity(key, dim, fallback, required);
+    if (table_.get(key) && !(v > 0)) throw InputError(at(key), "must be positive");
+    return v;
+  }
+  double nonNegative(const std::string& key, const units::Dimension& dim, double fallback) {
+    const double v = quantity(key, dim, fallback);
+    if (!(v >= 0)) throw InputError(at(key), "must not be negative");
+    return v;
+  }
+  bool boolean(const std::string& key, bool fallback) {
+    const toml::node* n = get(key);
+    if (!n) return fallback;
+    if (auto b = n->value<bool>()) return *b;
+    throw InputError(at(key), "must be true or false");
+  }
+  int integer(const std::string& key, int fallback, int lowest) {
+    const toml::node* n = get(key);
+    if (!n) return fallback;
+    auto v = n->value<int64_t>();
+    if (!v) throw InputError(at(key), "must be a whole number");
+    if (*v < lowest) throw InputError(at(key), "too small", "at least " + std::to_string(lowest));
+    return static_cast<int>(*v);
+  }
+  template <class E>
+  E choice(const std::string& key, const std::vector<std::pair<std::string, E>>& options, E fallback) {
+    const toml::node* n = get(key);
+    if (!n) return fallback;
+    std::string allowed;
+    for (const auto& o : options) allowed += (allowed.empty() ? "" : ", ") + o.first;
+    auto s = n->as_string();
+    if (!s) throw InputError(at(key), "must be a string", allowed);
+    for (const auto& o : options)
+      if (o.first == s->get()) return o.second;
+    throw InputError(at(key), "unknown value '" + s->get() + "'", allowed);
+  }
+  const toml::table* table(const std::string& key) {
+    const toml::node* n = get(key);
+    if (!n) return nullptr;
+    if (auto t = n->as_table()) return t;
+    throw InputError(at(key), "must be a table ([" + (path_.empty() ? key : path_ + "." + key) + "])");
+  }
+  void finish() const {
+    std::string allowed;
+    for (const auto& k : seen_) allowed += (allowed.empty() ? "" : ", ") + k;
+    for (const auto& [k, node] : table_) {
+      const std::string key(k.str());
+      if (!seen_.count(key)) throw InputError(at(key), "unknown key", allowed);
+    }
+  }
+  std::string child(const std::string& key) const { return path_.empty() ? key : path_ + "." + key; }
+  const std::string& source() const { return source_; }
+
+ private:
+  const toml::table& table_;
+  std::string path_, source_;
+  std::set<std::string> seen_;
+};
+
+const std::vector<std::pair<std::string, BoundaryKind>> kEdges = {
+    {"non-reflecting", BoundaryKind::nonReflecting}, {"free", BoundaryKind::free}, {"fixed", BoundaryKind::fixed}};
+
+void readProjectile(TableReader r, ProjectileSpec& p) {
+  p.shape = r.choice<ProjectileShape>("shape", {{"sphere", ProjectileShape::sphere}, {"cylinder", ProjectileShape::cylinder}},
+                                      ProjectileShape::sphere);
+  p.diameter = r.positive("diameter", units::length, 0, true);
+  p.material = r.string("material", "", true);
+  p.velocity = r.positive("velocity", units::velocity, 0, true);
+  p.angle = r.nonNegative("angle", units::angle, 0);
+  if (p.angle >= 0.5 * M_PI - 1e-9)
+    throw InputError(r.at("angle"), "the angle from the target normal must be below 90 deg", "0 deg to 89 deg");
+  p.spacing = r.positive("spacing", units::length, 0);
+  if (p.shape == ProjectileShape::cylinder) {
+    p.length = r.positive("length", units::length, 0, true);
+    p.nose = r.choice<NoseShape>("nose", {{"flat", NoseShape::flat}, {"hemispherical", NoseShape::hemispherical},
+                                          {"conical", NoseShape::conical}, {"ogival", NoseShape::ogival}},
+                                 NoseShape::flat);
+    const double radius = 0.5 * p.diameter;
+    if (p.nose == NoseShape::conical) p.noseLength = r.positive("nose_length", units::length, 0, true);
+    if (p.nose == NoseShape::ogival) {
+      p.noseCaliberRadius = r.quantity("nose_caliber_radius", units::dimensionless, 3.0);
+      if (!(p.noseCaliberRadius >= 0.5))
+        throw InputError(r.at("nose_caliber_radius"), "a tangent ogive needs at least half a caliber", "0.5 or more");
+      const double R = p.noseCaliberRadius * p.diameter;
+      p.noseLength = std::sqrt(R * R - (R - radius) * (R - radius));
+    }
+    if (p.nose == NoseShape::hemispherical) p.noseLength = radius;
+    if (p.noseLength >= p.length)
+      throw InputError(r.at("length"), "the nose is as long as the projectile or longer",
+                       "a length above the nose length (" + units::format(p.noseLength, "mm", 4) + ")");
+  }
+  r.finish();
+}
+
+void readLayer(TableReader r, LayerSpec& l, std::size_t index) {
+  l.name = r.string("name", "layer " + std::to_string(index + 1));
+  l.material = r.string("material", "", true);
+  l.thickness = r.positive("thickness", units::length, 0, true);
+  l.gapBefore = r.nonNegative("gap_before", units::length, 0);
+  l.spacing = r.positive("spacing", units::length, 0);
+  r.finish();
+}
+
+void readTarget(TableReader r, TargetSpec& t, const std::string& source) {
+  t.lateralSize = r.positive("lateral_size", units::length, 0, true);
+  t.edge = r.choice<BoundaryKind>("edge", kEdges, BoundaryKind::nonReflecting);
+  const toml::node* layers = r.get("layer");
+  const toml::array* list = layers ? layers->as_array() : nullptr;
+  if (!list || list->empty())
+    throw InputError(r.at("layer"), "the target needs at least one layer", "[[target.layer]] tables, front to rear");
+  for (std::size_t i = 0; i < list->size(); ++i) {
+    const toml::table* lt = (*list)[i].as_table();
+    if (!lt) throw InputError(r.at("layer"), "every layer must be a table", "[[target.layer]]");
+    LayerSpec l;
+    readLayer(TableReader(*lt, r.child("layer." + std::to_string(i + 1)), source), l, i);
+    t.layers.push_back(l);
+  }
+  r.finish();
+}
+
+void readResolution(TableReader r, ResolutionSpec& s) {
+  s.particleSpacing = r.positive("particle_spacing", units::length, 0, true);
+  s.cellSize = r.positive("cell_size", units::length, 0);
+  r.finish();
+}
+
+void readRun(TableReader r, RunSpec& s) {
+  s.mode = r.choice<ModelMode>("mode", {{"auto", ModelMode::automatic}, {"3d", ModelMode::threeD},
+                                        {"axisymmetric", ModelMode::axisymmetric}},
+                               ModelMode::automatic);
+  s.maxTime = r.positive("max_time", units::time, 0, true);
+  s.stopWhenSettled = r.boolean("stop_when_settled", true);
+  s.frames = r.integer("frames", 10, 0);
+  r.finish();
+}
+
+void readVerdict(TableReader r, VerdictOptions& v) {
+  v.separationCells = r.positive("separation_cells", units::dimensionless, v.separationCells);
+  v.debrisMassFraction = r.positive("debris_mass_fraction", units::dimensionless, v.debrisMassFraction);
+  v.settledKineticFraction = r.positive("settled_kinetic_fraction", units::dimensionless, v.settledKineticFraction);
+  r.finish();
+}
+
+void readSolver(TableReader r, SolverOptions& o) {
+  o.shapeFunction = r.choice<ShapeFunctionKind>(
+      "shape_function", {{"ugimp", ShapeFunctionKind::uGimp}, {"linear", ShapeFunctionKind::linear}}, o.shapeFunction);
+  o.scheme = r.choice<UpdateSchemeKind>("scheme", {{"musl", UpdateSchemeKind::musl}, {"usl", UpdateSchemeKind::usl}},
+                                        o.scheme);
+  o.contact.mode = r.choice<ContactMode>(
+      "contact", {{"multi-field", ContactMode::multiField}, {"single-field", ContactMode::singleField}}, o.contact.mode);
+  o.contact.friction = r.nonNegative("friction", units::dimensionless, o.contact.friction);
+  o.timeStepSafety = r.positive("time_step_safety", units::dimensionless, o.timeStepSafety);
+  if (o.timeStepSafety > 1) throw InputError(r.at("time_step_safety"), "above the stability limit", "0 < safety <= 1");
+  o.flipFraction = r.nonNegative("flip_fraction", units::dimensionless, o.flipFraction);
+  if (o.flipFraction > 1) throw InputError(r.at("flip_fraction"), "out of range", "0 (PIC) to 1 (FLIP)");
+  o.viscosity.linear = r.nonNegative("viscosity_linear", units::dimensionless, o.viscosity.linear);
+  o.viscosity.quadratic = r.nonNegative("viscosity_quadratic", units::dimensionless, o.viscosity.quadratic);
+  r.finish();
+}
+
+// "key=value" onto the document. Layers are addressed as target.layer.N (1-based) or target.layer.NAME.
+void applySetting(toml::table& root, const std::string& setting) {
+  const auto flag = [&](const std::string& key) { return InputLocation{"--set", std::nullopt, key}; };
+  const auto eq = setting.find('=');
+  if (eq == std::string::npos || eq == 0)
+    throw InputError(InputLocation::flag("--set"), "'" + setting + "' is not key=value",
+                     "e.g. --set projectile.diameter=1.2mm");
+  const std::string key = setting.substr(0, eq), text = setting.substr(eq + 1);
+  std::vector<std::string> parts;
+  std::stringstream ss(key);
+  for (std::string p; std::getline(ss, p, '.');) parts.push_back(p);
+  toml::table* t = &root;
+  for (std::size_t i = 0; i + 1 < parts.size(); ++i) {
+    toml::node* n = t->get(parts[i]);
+    if (n && n->is_array()) {  // target.layer.N or target.layer.NAME
+      toml::array& arr = *n->as_array();
+      if (i + 2 >= parts.size())
+        throw InputError(flag(key), "a layer needs a key after its number or name", "e.g. target.layer.2.gap_before");
+      const std::string& which = parts[++i];
+      toml::table* found = nullptr;
+      char* end = nullptr;
+      const long number = std::strtol(which.c_str(), &end, 10);
+      if (end && *end == '\0' && number >= 1 && number <= static_cast<long>(arr.size())) {
+        found = arr[static_cast<std::size_t>(number - 1)].as_table();
+      } else {
+        for (auto& e : arr)
+          if (auto lt = e.as_table(); lt && lt->get("name") && lt->get("name")->value<std::string>() == which)
+            found = lt;
+      }
+      if (!found)
+        throw InputError(flag(key), "no layer '" + which + "'",
+                         "a number from 1 to " + std::to_string(arr.size()) + " or a layer's name");
+      t = found;
+      continue;
+    }
+    if (!n) n = t->insert_or_assign(parts[i], toml::table{}).first->second.as_table();
+    if (!n || !n->is_table()) throw InputError(flag(key), "'" + parts[i] + "' is not a table");
+    t = n->as_table();
+  }
+  // The value as TOML if it is TOML (numbers, booleans, quoted strings), else the text itself (1.2mm).
+  toml::node_view<toml::node> value;
+  toml::table parsed;
+  try {
+    parsed = toml::parse("value = " + text);
+  } catch (const toml::parse_error&) {
+    parsed = toml::table{};
+    parsed.insert("value", text);
+  }
+  // Nodes copied from the parsed snippet keep its line 1; re-create them so that errors name the flag.
+  toml::node& v = *parsed.get("value");
+  if (auto s = v.as_string()) t->insert_or_assign(parts.back(), std::string(s->get()));
+  else if (auto i = v.as_integer()) t->insert_or_assign(parts.back(), i->get());
+  else if (auto d = v.as_floating_point()) t->insert_or_assign(parts.back(), d->get());
+  else if (auto b = v.as_boolean()) t->insert_or_assign(parts.back(), b->get());
+  else throw InputError(flag(key), "unsupported value '" + text + "'", "a number, true/false, or text such as 1.2mm");
+}
+
+}  // namespace
+
+ImpactScenario parseScenario(const std::string& text, const std::string& sourceName,
+                             const std::vector<std::string>& settings) {
+  toml::table root;
+  try {
+    root = toml::parse(text, sourceName);
+  } catch (const toml::parse_error& e) {
+    throw InputError(InputLocation::file(sourceName, static_cast<int>(e.source().begin.line)),
+                     "not valid TOML: " + std::string(e.description()));
+  }
+  for (const auto& s : settings) applySetting(root, s);
+
+  ImpactScenario sc;
+  sc.path = sourceName;
+  sc.settings = settings;
+  TableReader r(root, "", sourceName);
+  sc.name = r.string("name", std::filesystem::path(sourceName).stem().string());
+  sc.description = r.string("description", "");
+  sc.source = r.string("source", "");
+  const auto section = [&](const std::string& key, bool required) -> const toml::table* {
+    const toml::table* t = r.table(key);
+    if (!t && required) throw InputError(r.at(key), "the required table is missing", "[" + key + "]");
+    return t;
+  };
+  readProjectile(TableReader(*section("projectile", true), "projectile", sourceName), sc.projectile);
+  readTarget(TableReader(*section("target", true), "target", sourceName), sc.target, sourceName);
+  readResolution(TableReader(*section("resolution", true), "resolution", sourceName), sc.resolution);
+  readRun(TableReader(*section("run", true), "run", sourceName), sc.run);
+  if (auto t = section("verdict", false)) readVerdict(TableReader(*t, "verdict", sourceName), sc.verdict);
+  if (auto t = section("solver", false)) readSolver(TableReader(*t, "solver", sourceName), sc.solver);
+  r.finish();
+
+  if (sc.run.mode == ModelMode::axisymmetric && sc.projectile.angle > 1e-9)
+    throw InputError(r.at("run"), "an oblique impact cannot run axisymmetric",
+                     "mode = \"3d\" or \"auto\", or projectile.angle = \"0 deg\"");
+  const double h = sc.cellSize();
+  if (sc.projectileSpacing() > h)
+    throw InputError(InputLocation::file(sourceName, std::nullopt, "projectile.spacing"),
+                     "the particle spacing is larger than the cell", "at most the cell size " + units::format(h, "mm", 4));
+  for (std::size_t i = 0; i < sc.target.layers.size(); ++i)
+    if (sc.layerSpacing(i) > sc.target.layers[i].thickness + 1e-12)
+      throw InputError(InputLocation::file(sourceName, std::nullopt, "target.layer." + std::to_string(i + 1) + ".spacing"),
+                       "layer '" + sc.target.layers[i].name + "' is thinner than one particle spacing",
+                       "a spacing of at most the thickness " + units::format(sc.target.layers[i].thickness, "mm", 4));
+  return sc;
+}
+
+ImpactScenario loadScenario(const std::string& path, const std::vector<std::string>& settings) {
+  std::ifstream in(path);
+  if (!in) throw InputError(InputLocation::file(path), "cannot open the scenario file");
+  std::stringstream text;
+  text << in.rdbuf();
+  return parseScenario(text.str(), path, settings);
+}
+
+Material resolveMaterial(const std::string& name, const InputLocation& where) {
+  static const std::string kLaminate = "laminate:";
+  if (name.rfind(kLaminate, 0) == 0) {
+    std::string stack = name.substr(kLaminate.size());
+    const std::string path = stack.find(".toml") != std::string::npos
+                                 ? stack
+                                 : MaterialLibrary::defaultDirectory() + "/" + stack + ".toml";
+    if (!std::filesystem::exists(path))
+      throw InputError(where, "no laminate stack file " + path, "laminate:mli_stack, or laminate:PATH.toml");
+    const analytic::Stack s = analytic::loadStack(path);
+    return analytic::equivalentMaterialCard(s, analytic::analyseLaminate(s.layers), name);
+  }
+  if (name.find(".toml") != std::string::npos) return loadMaterial(name);
+  const MaterialLibrary library = MaterialLibrary::load();
+  try {
+    return library.get(name);
+  } catch (const InputError& e) {
+    throw InputError(where, "unknown material '" + name + "'", e.what());
+  }
+}
+
+}  // namespace blt::sim
