@@ -62,8 +62,8 @@ void printImpact(const nlohmann::json& d) {
               d["verdict_reason"].get<std::string>().c_str(), d["settled"].get<bool>() ? ", settled" : ", not settled",
               d["time_s"].get<double>() * 1e6);
   if (d["residual_velocity_m_s"].get<double>() > 0)
-    std::printf("residual velocity: %.4g m/s (largest fragment behind the rear wall, %.4g mg)\n",
-                d["residual_velocity_m_s"].get<double>(), d["residual_fragment_mass_kg"].get<double>() * 1e6);
+    std::printf("residual velocity: %.4g m/s (%s, %.4g g)\n", d["residual_velocity_m_s"].get<double>(),
+                d["residual_velocity_of"].get<std::string>().c_str(), d["residual_fragment_mass_kg"].get<double>() * 1e3);
   std::printf("hole sizes (D_h x D_v):\n");
   for (std::size_t i = 0; i < d["layers"].size(); ++i)
     std::printf("  %-12s %.3g x %.3g mm\n", d["layers"][i].get<std::string>().c_str(),

@@ -13,6 +13,11 @@ const char* toString(BisectVariable v) { return v == BisectVariable::diameter ? 
 
 namespace {
 
+// A perforation is settled for the run once, between two checks, the mass behind the wall changes by less than
+// this share of the projectile's mass and the residual velocity by less than this fraction of itself.
+constexpr double kSteadyMassFraction = 0.002;
+constexpr double kSteadyVelocityFraction = 0.02;
+
 template <int D>
 ImpactResult runModel(const ImpactScenario& sc, const ImpactRunOptions& options) {
   ImpactModel<D> model = buildImpactModel<D>(sc, options.threads);
@@ -26,12 +31,20 @@ ImpactResult runModel(const ImpactScenario& sc, const ImpactRunOptions& options)
   ro.frames = sc.run.frames;
   RunHooks<D> hooks;
   hooks.progress = options.progress;
+  // After a perforation the run goes on until the mass behind the wall and the residual velocity hold still
+  // between two checks (a plug leaves before the projectile; a debris cloud keeps arriving for a while).
+  PerforationVerdict previous;
   if (sc.run.stopWhenSettled)
     hooks.stop = [&](const Solver<D>&) {
       const PerforationVerdict v = assessPerforation<D>(model, sc.verdict, initialKinetic, false);
-      return v.settled ? "verdict settled: " + std::string(v.perforated ? "perforated" : "not perforated") + " (" +
-                             v.reason + ")"
-                       : std::string();
+      const bool steady = !v.perforated ||
+                          (std::fabs(v.massBehindFraction - previous.massBehindFraction) < kSteadyMassFraction &&
+                           std::fabs(v.residualVelocity - previous.residualVelocity) <=
+                               kSteadyVelocityFraction * v.residualVelocity);
+      previous = v;
+      return v.settled && steady ? "verdict settled: " + std::string(v.perforated ? "perforated" : "not perforated") +
+                                       " (" + v.reason + ")"
+                                 : std::string();
     };
   const RunResult r = run<D>(solver, ro, hooks);
 
@@ -77,6 +90,7 @@ ImpactResult runModel(const ImpactScenario& sc, const ImpactRunOptions& options)
       {"mass_behind_rear_wall_fraction", v.massBehindFraction},
       {"residual_velocity_m_s", v.residualVelocity},
       {"residual_fragment_mass_kg", v.residualFragmentMass},
+      {"residual_velocity_of", v.residualFrom},
       {"layers", layers},
       {"hole_size_mm", holes},
       {"kinetic_energy_fraction", v.kineticFraction},
@@ -88,6 +102,7 @@ ImpactResult runModel(const ImpactScenario& sc, const ImpactRunOptions& options)
       {"max_time_s", sc.run.maxTime},
       {"steps", r.steps},
       {"particles", result.particles},
+      {"inactive_particles", solver.particles().size() - solver.activeParticles()},
       {"wall_time_s", r.wallSeconds},
       {"run", r.summary}};
   result.summary = doc;

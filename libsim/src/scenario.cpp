@@ -257,6 +257,7 @@ void readSolver(TableReader r, SolverOptions& o) {
   if (o.flipFraction > 1) throw InputError(r.at("flip_fraction"), "out of range", "0 (PIC) to 1 (FLIP)");
   o.viscosity.linear = r.nonNegative("viscosity_linear", units::dimensionless, o.viscosity.linear);
   o.viscosity.quadratic = r.nonNegative("viscosity_quadratic", units::dimensionless, o.viscosity.quadratic);
+  o.erosionExpansion = r.nonNegative("erosion_expansion", units::dimensionless, o.erosionExpansion);
   r.finish();
 }
 

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <sstream>
+#include <tuple>
 
 namespace blt::sim {
 
@@ -272,25 +273,36 @@ PerforationVerdict assessPerforation(const ImpactModel<D>& model, const VerdictO
   v.massBehindFraction = model.projectileMass > 0 ? massBehind / model.projectileMass : 0.0;
   v.massBehind = massBehind / model.modelledFraction;
 
-  // The largest fragment behind the wall and its speed; velocity components across symmetry planes cancel
+  // Residual velocity: of the projectile when it is still mostly one piece and has come through (ordnance), else
+  // of the largest fragment behind the wall (a debris cloud). Velocity components across symmetry planes cancel
   // with the mirrored half and are dropped.
-  if (!behind.empty()) {
-    const Voxels<D> debris(P, behind, model.projectileSpacing);
-    const int piece = debris.largest();
+  const auto pieceOf = [&](const std::vector<std::size_t>& members, double pitch) {
+    const Voxels<D> vox(P, members, pitch);
+    const int piece = vox.largest();
     double m = 0;
-    Vec<D> momentum = Vec<D>::Zero();
-    for (std::size_t p : behind)
-      if (debris.componentAt(P.position[p]) == piece) m += P.mass[p], momentum += P.mass[p] * P.velocity[p];
-    if (m > 0) {
-      Vec<D> u = momentum / m;
-      if constexpr (D == 2) u[0] = 0.0;
-      if constexpr (D == 3) {
-        u[1] = 0.0;
-        if (model.mirrorX) u[0] = 0.0;
-      }
-      v.residualVelocity = u.norm();
-      v.residualFragmentMass = m / model.modelledFraction;
+    Vec<D> momentum = Vec<D>::Zero(), centre = Vec<D>::Zero();
+    for (std::size_t p : members)
+      if (vox.componentAt(P.position[p]) == piece)
+        m += P.mass[p], momentum += P.mass[p] * P.velocity[p], centre += P.mass[p] * P.position[p];
+    Vec<D> u = m > 0 ? Vec<D>(momentum / m) : Vec<D>::Zero();
+    if constexpr (D == 2) u[0] = 0.0;
+    if constexpr (D == 3) {
+      u[1] = 0.0;
+      if (model.mirrorX) u[0] = 0.0;
     }
+    return std::make_tuple(m, u.norm(), m > 0 ? centre[D - 1] / m : 0.0);
+  };
+  const auto [projectilePiece, projectileSpeed, projectileZ] =
+      pieceOf(bodyParticles(P, 0, true), model.projectileSpacing);
+  if (projectilePiece >= 0.5 * model.projectileMass && projectileZ < wallLayer.rear) {
+    v.residualVelocity = projectileSpeed;
+    v.residualFragmentMass = projectilePiece / model.modelledFraction;
+    v.residualFrom = "projectile";
+  } else if (!behind.empty()) {
+    const auto [m, speed, z] = pieceOf(behind, model.projectileSpacing);
+    v.residualVelocity = speed;
+    v.residualFragmentMass = m / model.modelledFraction;
+    v.residualFrom = "largest fragment";
   }
 
   const LayerHole opening = holeAround(wall, wallPiece, model, 0.5 * (wallLayer.front + wallLayer.rear));

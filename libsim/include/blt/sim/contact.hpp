@@ -38,4 +38,28 @@ inline void correctContact(Vec<D>* v, const double* m, const Vec<D>* normal, con
   }
 }
 
+// Bodies with only a sliver of a node's volume take no part in the momentum exchange there: their nodal velocity
+// (force over a tiny mass) is ill-defined. They may not pass into the others either. The test and the
+// correction use their momentum velocity `momentumVelocity` (p/m, a weighted mean of their particles'
+// velocities): its part relative to the others' centre of mass `vcm` along `normal` (the sliver's outward
+// normal, opposite the dominant body's) is taken off when approaching, and all of it where that normal is
+// undefined (inside another body). Correcting from the ill-defined velocity itself would break the cancellation
+// of the force terms over a particle's nodes in the FLIP update and fling sliver particles off. The momentum
+// this takes is a sliver's, and is not given back to the others.
+template <int D>
+inline void correctSlivers(Vec<D>* v, const Vec<D>* momentumVelocity, const int* ids, int count, const Vec<D>& vcm,
+                           const Vec<D>& normal) {
+  const bool inside = normal.squaredNorm() == 0;
+  for (int k = 0; k < count; ++k) {
+    const int b = ids[k];
+    const Vec<D> relative = momentumVelocity[b] - vcm;
+    if (inside) {
+      v[b] -= relative;
+      continue;
+    }
+    const double dn = relative.dot(normal);
+    if (dn > 0) v[b] -= dn * normal;
+  }
+}
+
 }  // namespace blt::sim

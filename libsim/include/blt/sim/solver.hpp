@@ -49,6 +49,10 @@ struct SolverOptions {
   double flipFraction = 1.0;
   BulkViscosity viscosity;
   ContactOptions contact;
+  // Erosion: a failed point whose volume has grown past this multiple of its initial volume is removed (made
+  // inactive where it is). Such points are spray or vapour; left in, their meaningless velocity gradients
+  // broke hypervelocity runs through fabric layers. 0: never.
+  double erosionExpansion = 10.0;
   bool axisymmetric = true;  // D = 2 only; false gives plane strain
   // OpenMP threads; 0 keeps the OpenMP default (OMP_NUM_THREADS or all cores). Runs below 4000 particles stay
   // serial. Several runs sharing a machine should use 1 each: a thread waiting at a barrier for a descheduled
@@ -172,6 +176,7 @@ class Solver {
   bool trackBoundary_ = false;
   std::array<bool, 2 * D> walls_{};  // faces that material may not cross (fixed, symmetry)
   std::vector<double> bodyWaveSpeed_, bodyShearSpeed_;
+  std::vector<double> bodyDensity_;  // kg/m^3, of each body's material (the contact's volume shares)
 
   // Per-particle caches and thread bins.
   std::vector<Stencil<D>> stencil_;

@@ -11,14 +11,17 @@
 // on a voxel grid of the wall's particle spacing, connected through voxel faces. A plug or a spall fragment that
 // has come loose is therefore not part of the wall, wherever it is.
 // SETTLED: (a) holds (a perforation), or the kinetic energy of the whole model has fallen below
-// VerdictOptions::settledKineticFraction of the initial one with neither (a) nor (b) (a stop). A run that ends
-// unsettled takes the verdict of its last state.
+// VerdictOptions::settledKineticFraction of the initial one with neither (a) nor (b) (a stop). A run that stops
+// when settled (impact.hpp) also waits, after a perforation, until the mass behind the wall and the residual
+// velocity have stopped changing between two checks. A run that ends unsettled takes the verdict of its last
+// state.
 //
 // Hole size of a layer: the opening of its intact (not failed) connected material, projected on the layer's
 // plane, around the shot line; two perpendicular extents as in seed 000 Table 5 (D_h along x, in the plane of
 // incidence, D_v along y). Axisymmetric runs give the diameter twice.
-// Residual velocity: the speed of the centre of mass of the largest connected fragment behind the rear wall
-// (the projectile when it comes through whole).
+// Residual velocity: the speed of the projectile's centre of mass when its largest connected piece holds at
+// least half its mass and is past the rear wall (ordnance); otherwise that of the largest connected fragment
+// behind the rear wall (a debris cloud).
 
 #include <string>
 #include <vector>
@@ -40,8 +43,9 @@ struct PerforationVerdict {
   double massBehind = 0;          // kg, of the whole target (the modelled share scaled up)
   double massBehindFraction = 0;  // of the projectile's mass
   bool rearOpening = false;       // (b) above
-  double residualVelocity = 0;    // m/s, 0 when nothing is behind the rear wall
-  double residualFragmentMass = 0;  // kg, whole
+  double residualVelocity = 0;    // m/s, 0 when nothing has come through
+  double residualFragmentMass = 0;  // kg, whole: the projectile's piece or the fragment that gives it
+  std::string residualFrom;         // "projectile" or "largest fragment" (empty when nothing came through)
   double kineticFraction = 0;     // kinetic energy / initial kinetic energy
   std::vector<LayerHole> holes;   // front to rear; empty unless asked for
 };
