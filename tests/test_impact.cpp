@@ -204,6 +204,7 @@ TEST_CASE("verdict: material separated behind the rear wall perforates it and gi
   CHECK(v.massBehindFraction == relApprox(1.0, 1e-12));
   CHECK(v.residualVelocity == relApprox(1234.0, 1e-12));
   CHECK(v.residualFragmentMass == relApprox(m.projectileMass * 2 * M_PI, 1e-12));
+  CHECK(v.residualFrom == "projectile");
   // Moving back towards the wall it is not counted.
   for (std::size_t p = 0; p < P.size(); ++p)
     if (P.body[p] == 0) P.velocity[p] = Vec<2>(0.0, 100.0);
