@@ -4,7 +4,6 @@
 #include <cmath>
 #include <limits>
 #include <sstream>
-#include <tuple>
 
 namespace blt::sim {
 
@@ -273,38 +272,6 @@ PerforationVerdict assessPerforation(const ImpactModel<D>& model, const VerdictO
   v.massBehindFraction = model.projectileMass > 0 ? massBehind / model.projectileMass : 0.0;
   v.massBehind = massBehind / model.modelledFraction;
 
-  // Residual velocity: of the projectile when it is still mostly one piece and has come through (ordnance), else
-  // of the largest fragment behind the wall (a debris cloud). Velocity components across symmetry planes cancel
-  // with the mirrored half and are dropped.
-  const auto pieceOf = [&](const std::vector<std::size_t>& members, double pitch) {
-    const Voxels<D> vox(P, members, pitch);
-    const int piece = vox.largest();
-    double m = 0;
-    Vec<D> momentum = Vec<D>::Zero(), centre = Vec<D>::Zero();
-    for (std::size_t p : members)
-      if (vox.componentAt(P.position[p]) == piece)
-        m += P.mass[p], momentum += P.mass[p] * P.velocity[p], centre += P.mass[p] * P.position[p];
-    Vec<D> u = m > 0 ? Vec<D>(momentum / m) : Vec<D>::Zero();
-    if constexpr (D == 2) u[0] = 0.0;
-    if constexpr (D == 3) {
-      u[1] = 0.0;
-      if (model.mirrorX) u[0] = 0.0;
-    }
-    return std::make_tuple(m, u.norm(), m > 0 ? centre[D - 1] / m : 0.0);
-  };
-  const auto [projectilePiece, projectileSpeed, projectileZ] =
-      pieceOf(bodyParticles(P, 0, true), model.projectileSpacing);
-  if (projectilePiece >= 0.5 * model.projectileMass && projectileZ < wallLayer.rear) {
-    v.residualVelocity = projectileSpeed;
-    v.residualFragmentMass = projectilePiece / model.modelledFraction;
-    v.residualFrom = "projectile";
-  } else if (!behind.empty()) {
-    const auto [m, speed, z] = pieceOf(behind, model.projectileSpacing);
-    v.residualVelocity = speed;
-    v.residualFragmentMass = m / model.modelledFraction;
-    v.residualFrom = "largest fragment";
-  }
-
   const LayerHole opening = holeAround(wall, wallPiece, model, 0.5 * (wallLayer.front + wallLayer.rear));
   v.rearOpening = opening.horizontal > 0 || opening.vertical > 0;
   v.kineticFraction = initialKinetic > 0 ? solver.energies().kinetic / initialKinetic : 0.0;
@@ -319,6 +286,33 @@ PerforationVerdict assessPerforation(const ImpactModel<D>& model, const VerdictO
     v.settled = v.kineticFraction < options.settledKineticFraction;
     v.reason = v.settled ? "stopped: kinetic energy down to " + percent(v.kineticFraction) + " of the initial"
                          : "rear wall intact so far";
+  }
+
+  // Residual velocity, once perforated: of the projectile when it is still mostly one piece (ordnance; a long
+  // rod is still in the hole when the plug has left), else of the largest fragment behind the wall (debris).
+  // Velocity components across symmetry planes cancel with the mirrored half and are dropped.
+  const auto largestPiece = [&](const std::vector<std::size_t>& members) {
+    const Voxels<D> vox(P, members, model.projectileSpacing);
+    const int piece = vox.largest();
+    double m = 0;
+    Vec<D> momentum = Vec<D>::Zero();
+    for (std::size_t p : members)
+      if (vox.componentAt(P.position[p]) == piece) m += P.mass[p], momentum += P.mass[p] * P.velocity[p];
+    Vec<D> u = m > 0 ? Vec<D>(momentum / m) : Vec<D>::Zero();
+    if constexpr (D == 2) u[0] = 0.0;
+    if constexpr (D == 3) {
+      u[1] = 0.0;
+      if (model.mirrorX) u[0] = 0.0;
+    }
+    return std::make_pair(m, u.norm());
+  };
+  if (v.perforated) {
+    const auto projectile = largestPiece(bodyParticles(P, 0, true));
+    const auto piece = projectile.first >= 0.5 * model.projectileMass || behind.empty() ? projectile
+                                                                                         : largestPiece(behind);
+    v.residualVelocity = piece.second;
+    v.residualFragmentMass = piece.first / model.modelledFraction;
+    v.residualFrom = piece == projectile ? "projectile" : "largest fragment";
   }
 
   if (measureHoles)

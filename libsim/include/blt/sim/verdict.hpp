@@ -19,9 +19,9 @@
 // Hole size of a layer: the opening of its intact (not failed) connected material, projected on the layer's
 // plane, around the shot line; two perpendicular extents as in seed 000 Table 5 (D_h along x, in the plane of
 // incidence, D_v along y). Axisymmetric runs give the diameter twice.
-// Residual velocity: the speed of the projectile's centre of mass when its largest connected piece holds at
-// least half its mass and is past the rear wall (ordnance); otherwise that of the largest connected fragment
-// behind the rear wall (a debris cloud).
+// Residual velocity (perforated only): the speed of the projectile's largest connected piece when it holds at
+// least half its mass (ordnance); otherwise that of the largest connected fragment behind the rear wall (a
+// debris cloud).
 
 #include <string>
 #include <vector>
