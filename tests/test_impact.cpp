@@ -107,6 +107,13 @@ TEST_CASE("scenario: a bad key or value is an error naming the file, line or fla
   });
   CHECK(contains(material, "unobtainium"));
   CHECK(contains(material, "projectile.material"));
+  const std::string tooNarrow = messageOf([] {
+    const ImpactScenario sc = parseScenario(plateScenario(), "plate.toml",
+                                            {"projectile.shape=cylinder", "projectile.length=20mm",
+                                             "projectile.angle=60deg", "resolution.particle_spacing=0.25mm"});
+    buildImpactModel<3>(sc, 1);
+  });
+  CHECK(contains(tooNarrow, "target.lateral_size"));
 }
 
 TEST_CASE("impact model: the projectile has the exact mass of its solid and starts one cell in front") {

@@ -197,7 +197,16 @@ ImpactModel<D> buildImpactModel(const ImpactScenario& sc, int threads) {
     const double zc = centre[2] + shift[2];
     if (!m.mirrorX) shift[0] = -(centre[0] + zc * std::tan(theta));
   }
-  for (std::size_t i = begin; i < P.size(); ++i) P.position[i] += shift;
+  for (std::size_t i = begin; i < P.size(); ++i) {
+    P.position[i] += shift;
+    // An oblique rod reaches far back across the target; the grid spans the target's lateral extent only.
+    for (int a = 0; a < D - 1; ++a)
+      if (P.position[i][a] < grid.lower[a] || P.position[i][a] > grid.upper[a])
+        throw InputError(InputLocation::file(sc.path, std::nullopt, "target.lateral_size"),
+                         "the projectile reaches beyond the model's lateral extent at this angle",
+                         "a lateral size of at least twice " +
+                             units::format(std::fabs(P.position[i][a]) + s, "mm", 4));
+  }
   m.projectileStart = centre + shift;
   if constexpr (D == 3) m.projectileStart[1] = 0.0;
   if (m.mirrorX || axisymmetric) m.projectileStart[0] = 0.0;
