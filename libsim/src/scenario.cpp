@@ -203,7 +203,7 @@ void readLayer(TableReader r, LayerSpec& l, std::size_t index) {
   r.finish();
 }
 
-void readTarget(TableReader r, TargetSpec& t, const std::string& source) {
+void readTarget(TableReader r, TargetSpec& t) {
   t.lateralSize = r.positive("lateral_size", units::length, 0, true);
   t.edge = r.choice<BoundaryKind>("edge", kEdges, BoundaryKind::nonReflecting);
   const toml::node* layers = r.get("layer");
@@ -214,7 +214,7 @@ void readTarget(TableReader r, TargetSpec& t, const std::string& source) {
     const toml::table* lt = (*list)[i].as_table();
     if (!lt) throw InputError(r.at("layer"), "every layer must be a table", "[[target.layer]]");
     LayerSpec l;
-    readLayer(TableReader(*lt, r.child("layer." + std::to_string(i + 1)), source), l, i);
+    readLayer(TableReader(*lt, r.child("layer." + std::to_string(i + 1)), r.source()), l, i);
     t.layers.push_back(l);
   }
   r.finish();
@@ -344,7 +344,7 @@ ImpactScenario parseScenario(const std::string& text, const std::string& sourceN
     return t;
   };
   readProjectile(TableReader(*section("projectile", true), "projectile", sourceName), sc.projectile);
-  readTarget(TableReader(*section("target", true), "target", sourceName), sc.target, sourceName);
+  readTarget(TableReader(*section("target", true), "target", sourceName), sc.target);
   readResolution(TableReader(*section("resolution", true), "resolution", sourceName), sc.resolution);
   readRun(TableReader(*section("run", true), "run", sourceName), sc.run);
   if (auto t = section("verdict", false)) readVerdict(TableReader(*t, "verdict", sourceName), sc.verdict);
