@@ -13,4 +13,5 @@ void registerBleCommand(CLI::App& app);                    // ble.cpp
 void registerSimCommand(CLI::App& app);                    // sim.cpp
 void registerSimScenarioCommands(CLI::App& sim);          // sim_scenario.cpp: sim run, sim bisect
 void registerBenchCommand(CLI::App& app);                  // sim.cpp
+void registerCalibrateCommand(CLI::App& app);              // calibrate.cpp
 }  // namespace blt::cli

@@ -1,0 +1,173 @@
+// blt calibrate: close the loop with measured data. Residuals of a base model (an impact scenario run by the
+// solver, or an analytical residual-velocity model), candidate effects fitted and checked on held-out cases,
+// the winner named or "no effect found", a Markdown/SVG/JSON report.
+#include <filesystem>
+#include <memory>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "blt/analytic/residual_velocity.hpp"
+#include "blt/calibrate/analytic_model.hpp"
+#include "blt/calibrate/calibrate.hpp"
+#include "blt/calibrate/report.hpp"
+#include "blt/calibrate/solver_model.hpp"
+#include "cli_support.hpp"
+#include "commands.hpp"
+
+namespace blt::cli {
+
+namespace {
+
+namespace cal = blt::calibrate;
+
+std::string number(double v, int digits = 4) {
+  std::ostringstream out;
+  out.precision(digits);
+  out << v;
+  return out.str();
+}
+
+std::string withUnit(double si, const std::string& unit) {
+  return unit.empty() ? number(si) : number(units::toUnit(si, unit)) + " " + unit;
+}
+
+double positiveNumber(const std::string& text, const std::string& flag, bool allowZero) {
+  const double v = units::parse(text, units::dimensionless, InputLocation::flag(flag));
+  if (!(allowZero ? v >= 0 : v > 0))
+    throw InputError(InputLocation::flag(flag), text + " is out of range", allowZero ? "a number >= 0" : "a number > 0");
+  return v;
+}
+
+}  // namespace
+
+void registerCalibrateCommand(CLI::App& app) {
+  auto* cmd = app.add_subcommand(
+      "calibrate",
+      "Close the loop with measured data: run the base model at every measured case, fit each candidate effect\n"
+      "it lacks (one parameter, bounded), check each on held-out cases (cross-validation), and name the winner\n"
+      "or answer \"no effect found\". Writes DIR/report.md, DIR/calibration.json and SVG plots.\n"
+      "DATA.csv: columns case, diameter_mm, velocity_km_s (or velocity_m_s, impact_velocity_m_s), angle_deg,\n"
+      "and whichever were measured: perforated, residual_velocity_m_s, layer + hole_h_mm + hole_v_mm.\n"
+      "Base model: --scenario FILE (the MPM solver; effects interlayer_gaps, gap:LAYER, thickness:LAYER,\n"
+      "obliquity) or --model recht-ipson|lambert-jonas with --a, --p, --v-bl (effects plug_mass_ratio,\n"
+      "strength_scale, exponent).\n"
+      "Examples:\n"
+      "  blt calibrate --measured data/calibrate/residual_velocity_plug.csv --model recht-ipson --a 1 \\\n"
+      "      --v-bl 133.8m/s --report calib\n"
+      "  blt calibrate --measured data/calibrate/seed000_measured.csv \\\n"
+      "      --scenario data/scenarios/fabric_al_original.toml --effects interlayer_gaps,thickness:outer \\\n"
+      "      --set resolution.particle_spacing=0.2mm --set resolution.cell_size=0.4mm --report seed000");
+  struct State {
+    std::string measured, scenario, model, report, cache;
+    std::vector<std::string> effects, settings;
+    std::string aText = "1", pText = "2", folds = "0", grid = "0", refine = "-1", minImprovement = "0.1", minT = "2";
+    std::string jobs = "1", threads = "1";
+    double ballisticLimit = 0;
+    bool json = false;
+  };
+  auto s = std::make_shared<State>();
+  cmd->add_option("--measured", s->measured, "measured data (CSV, columns above)")->required()->type_name("DATA");
+  auto* scenarioOpt = cmd->add_option("--scenario", s->scenario, "base impact scenario (TOML) for the solver model")
+                          ->type_name("BASE");
+  auto* modelOpt = cmd->add_option("--model", s->model, "analytical base model: recht-ipson or lambert-jonas")
+                       ->type_name("MODEL");
+  scenarioOpt->excludes(modelOpt);
+  cmd->add_option("--effects", s->effects, "candidate effects, comma separated (default: all the model's defaults)")
+      ->delimiter(',')
+      ->type_name("LIST");
+  cmd->add_option("--report", s->report, "directory for report.md, calibration.json and the plots")->required()->type_name("DIR");
+  cmd->add_option("--a", s->aText, "analytical model: base a (0 < a <= 1, default 1)")->type_name("NUMBER");
+  cmd->add_option("--p", s->pText, "analytical model: base p (> 0, default 2)")->type_name("NUMBER");
+  auto* vblOpt = addQuantity(*cmd, "--v-bl", s->ballisticLimit, units::velocity, "analytical model: base v_bl");
+  cmd->add_option("--set", s->settings, "solver model: scenario setting KEY=VALUE on the base (repeatable)")
+      ->type_name("KEY=VALUE");
+  cmd->add_option("--cache", s->cache, "solver model: run cache (JSON; default DIR/runs.json), reused when present")
+      ->type_name("FILE");
+  cmd->add_option("--jobs", s->jobs, "solver model: runs at once (default 1)")->type_name("N");
+  cmd->add_option("--threads", s->threads, "solver model: threads per run (default 1)")->type_name("N");
+  cmd->add_option("--folds", s->folds, "cross-validation folds (default: leave-one-out up to 20 cases, else 10)")
+      ->type_name("K");
+  cmd->add_option("--grid", s->grid, "grid points per effect (default: 41 analytical, 7 solver)")->type_name("N");
+  cmd->add_option("--refine", s->refine, "golden-section steps after the grid (default: 40 analytical, 0 solver)")
+      ->type_name("N");
+  cmd->add_option("--min-improvement", s->minImprovement,
+                  "least relative fall of the held-out error to accept an effect (default 0.1)")
+      ->type_name("FRACTION");
+  cmd->add_option("--min-t", s->minT, "least t statistic of the per-case held-out improvement (default 2)")
+      ->type_name("NUMBER");
+  addJsonFlag(*cmd, s->json);
+
+  cmd->callback([s, vblOpt] {
+    if (s->scenario.empty() == s->model.empty())
+      throw InputError(InputLocation::flag("--scenario"), "no base model given",
+                       "--scenario FILE (solver) or --model recht-ipson|lambert-jonas with --v-bl");
+    cal::CalibrationOptions options;
+    options.effects = s->effects;
+    options.folds = static_cast<int>(positiveNumber(s->folds, "--folds", true));
+    options.gridPoints = static_cast<int>(positiveNumber(s->grid, "--grid", true));
+    options.refineSteps = s->refine == "-1" ? -1 : static_cast<int>(positiveNumber(s->refine, "--refine", true));
+    options.minRelativeImprovement = positiveNumber(s->minImprovement, "--min-improvement", true);
+    options.minTStatistic = positiveNumber(s->minT, "--min-t", true);
+    if (options.folds == 1)
+      throw InputError(InputLocation::flag("--folds"), "one fold holds nothing out", "0 (automatic) or 2 and more");
+
+    const cal::MeasuredData data = cal::readMeasuredData(s->measured);
+    std::unique_ptr<cal::Model> model;
+    if (!s->model.empty()) {
+      const auto kind = analytic::parseModelName(s->model);
+      if (!kind)
+        throw InputError(InputLocation::flag("--model"), "unknown model '" + s->model + "'", "recht-ipson, lambert-jonas");
+      if (vblOpt->count() == 0)
+        throw InputError(InputLocation::flag("--v-bl"), "the analytical model needs its ballistic limit", "e.g. --v-bl 133.8m/s");
+      analytic::ResidualVelocityParameters base;
+      base.a = positiveNumber(s->aText, "--a", false);
+      if (base.a > 1) throw InputError(InputLocation::flag("--a"), s->aText + " is out of range", "0 < a <= 1");
+      base.p = positiveNumber(s->pText, "--p", false);
+      base.ballisticLimit = s->ballisticLimit;
+      model = std::make_unique<cal::AnalyticModel>(*kind, base);
+    } else {
+      cal::SolverModelOptions so;
+      so.settings = s->settings;
+      so.cacheFile = s->cache.empty() ? (std::filesystem::path(s->report) / "runs.json").string() : s->cache;
+      so.jobs = static_cast<int>(positiveNumber(s->jobs, "--jobs", false));
+      so.threads = static_cast<int>(positiveNumber(s->threads, "--threads", false));
+      if (!s->json) so.log = [](const std::string& line) { std::cerr << "  run: " << line << "\n"; };
+      std::filesystem::create_directories(std::filesystem::path(so.cacheFile).parent_path().empty()
+                                              ? std::filesystem::path(".")
+                                              : std::filesystem::path(so.cacheFile).parent_path());
+      model = std::make_unique<cal::SolverModel>(s->scenario, so);
+      if (options.effects.empty())
+        for (const auto& e : model->effects())
+          if (e.name != "obliquity") options.effects.push_back(e.name);
+    }
+
+    const cal::CalibrationResult result = cal::calibrate(*model, data, options);
+    const auto files = cal::writeReport(s->report, result, data);
+    if (s->json) {
+      nlohmann::json doc = cal::toJson(result, data);
+      doc["files"] = files;
+      printJson(doc);
+      return;
+    }
+    const cal::EffectFit* w = result.winningFit();
+    std::cout << "calibration of " << result.model << " against " << data.source << " (" << data.cases.size()
+              << " cases, " << result.folds << " folds)\n";
+    if (w)
+      std::cout << "effect found: " << w->effect.name << ", " << w->effect.parameter.name << " = "
+                << withUnit(w->parameter, w->effect.parameter.unit) << "\n";
+    else
+      std::cout << "no effect found\n";
+    std::cout << "  error before " << number(result.before.combined) << ", after "
+              << number(w ? w->fitted.combined : result.before.combined) << "; held out before "
+              << number(result.before.combined) << ", after " << number(w ? w->heldoutError : result.before.combined)
+              << "\n  ranking (held-out error):\n";
+    for (const auto& f : result.ranking)
+      std::cout << "    " << f.effect.name << ": " << f.effect.parameter.name << " = "
+                << withUnit(f.parameter, f.effect.parameter.unit) << ", held out " << number(f.heldoutError) << "; "
+                << f.verdict << "\n";
+    std::cout << "  report: " << s->report << "/report.md\n";
+  });
+}
+
+}  // namespace blt::cli

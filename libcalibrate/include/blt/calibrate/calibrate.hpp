@@ -1,0 +1,110 @@
+#pragma once
+// The closed loop (issue 7): residuals of the base model at every measured case, each candidate effect fitted
+// (one parameter, bounded 1-D search), checked on held-out cases, ranked, and the winner named, or "no effect
+// found".
+//
+// Error measure. Each observation has a residual r (predicted - measured): for residual velocities and hole
+// sizes the signed error; for outcomes, when the model gives a margin m = ln(V/V_bl) (or ln(d/d_c)), the
+// distance to the right side, min(0, m) for a perforation and max(0, m) for a stop (0 when right); without a
+// margin, predicted minus measured outcome (-1, 0, 1). Residuals are grouped (outcomes, residual velocities,
+// hole sizes) and divided by the group's scale (outcomes 1, residual velocities and holes the RMS of their
+// measured values), and the error is E = sqrt(mean over the groups present of the mean squared scaled
+// residual): each kind of measurement weighs the same whatever its count or unit. E is dimensionless; the
+// report gives each group's RMS in its unit as well.
+//
+// Held-out check. Cases (not rows: the holes and outcome of one shot go together) are split into K folds,
+// case i in fold i mod K; K is the number of cases (leave-one-out) up to 20 cases, else 10. For each fold
+// the effect's parameter is fitted on the other folds and the fold's cases predicted with it; the held-out
+// error pools those predictions. The base model has no fitted parameter, so its held-out error is its error.
+//
+// Decision rule (documented in the report): an effect is accepted when its held-out error is at least
+// `minRelativeImprovement` (10 %) below the base's AND the improvement is significant: over cases, the
+// paired differences d_c = e_c(base) - e_c(effect, held out) of each case's share of E^2 have
+// mean / (sd / sqrt(n)) >= `minTStatistic` (2, about 97.5 % one-sided for n >= 10). Of the accepted effects
+// the one with the lowest held-out error wins; when none is accepted the answer is "no effect found".
+
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "blt/calibrate/measured.hpp"
+#include "blt/calibrate/model.hpp"
+
+namespace blt::calibrate {
+
+struct CalibrationOptions {
+  std::vector<std::string> effects;  // names; empty: every effect of the model
+  int gridPoints = 0;                // 0: the model's suggestion
+  int refineSteps = -1;              // golden-section steps after the grid; -1: the model's suggestion
+  int folds = 0;                     // 0: leave-one-out up to 20 cases, else 10
+  double minRelativeImprovement = 0.10;
+  double minTStatistic = 2.0;
+};
+
+// Residual groups: outcomes, residual velocities, hole sizes (D_h and D_v together).
+enum class ErrorGroup { outcome, residualVelocity, hole };
+const char* toString(ErrorGroup g);  // "outcome", "residual_velocity", "hole_size"
+ErrorGroup groupOf(ObservationKind kind);
+
+struct GroupError {
+  int count = 0;
+  double rms = 0;        // RMS residual in SI (outcomes: in margin units, or -1/0/1)
+  double scale = 1;      // SI
+  int misclassified = 0; // outcomes only: predicted the other way
+};
+
+struct ErrorSummary {
+  double combined = 0;  // E, dimensionless
+  std::map<ErrorGroup, GroupError> groups;
+};
+
+struct EffectFit {
+  Effect effect;  // a copy: the result outlives the model
+  double parameter = 0;                // SI, fitted on all cases
+  std::vector<double> foldParameters;  // SI, fitted without each fold
+  double sensitivity = 0;              // RMS scaled prediction change per unit of the parameter (as printed)
+  ErrorSummary fitted;                 // all cases, at `parameter`
+  double heldoutError = 0;             // E of the pooled held-out predictions
+  double explainedShare = 0;           // 1 - E_fitted^2 / E_base^2
+  double relativeImprovement = 0;      // 1 - heldout / heldout_base
+  double tStatistic = 0;               // of the paired per-case differences (inf when all equal and positive)
+  bool accepted = false;
+  std::string verdict;                 // why accepted or rejected
+  std::vector<Prediction> predictions;         // every case at `parameter`
+  std::vector<Prediction> heldoutPredictions;  // every case predicted by the fit without its fold
+  int evaluations = 0;                          // parameter values at which the model was run
+};
+
+struct FeatureCorrelation {
+  std::string feature;  // "diameter", "velocity", "angle"
+  double correlation = 0;
+  int count = 0;
+};
+
+struct CalibrationResult {
+  std::string model, source;
+  CalibrationOptions options;
+  int folds = 0;
+  ErrorSummary before;
+  std::vector<Prediction> basePredictions;  // every case
+  std::vector<FeatureCorrelation> features; // of the base residuals
+  std::vector<EffectFit> ranking;           // lowest held-out error first
+  std::optional<std::size_t> winner;        // index into ranking
+
+  const EffectFit* winningFit() const { return winner ? &ranking[*winner] : nullptr; }
+};
+
+CalibrationResult calibrate(Model& model, const MeasuredData& data, const CalibrationOptions& options = {});
+
+// The residual of one observation (SI, see above) and its prediction as a number (outcome 1/0, v_r, hole size).
+double residualOf(const Observation& o, const Prediction& p);
+double predictedValue(const Observation& o, const Prediction& p);
+
+// effect, parameters, error_before, error_after, heldout_error_before, heldout_error_after, the ranking, the
+// errors per group, the rule and the thresholds.
+nlohmann::json toJson(const CalibrationResult& result, const MeasuredData& data);
+
+}  // namespace blt::calibrate

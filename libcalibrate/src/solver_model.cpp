@@ -1,0 +1,208 @@
+#include "blt/calibrate/solver_model.hpp"
+
+#include <atomic>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <numbers>
+#include <sstream>
+#include <thread>
+
+#include "blt/core/error.hpp"
+#include "blt/sim/impact.hpp"
+
+namespace blt::calibrate {
+
+namespace {
+
+// A setting's value with its unit, exact enough to be a cache key and to round-trip.
+std::string value(double si, const char* unit, double factor) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.9g%s", si * factor, unit);
+  return buf;
+}
+
+std::string fileContents(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+}  // namespace
+
+SolverModel::SolverModel(const std::string& scenarioPath, SolverModelOptions options)
+    : path_(scenarioPath), options_(std::move(options)) {
+  base_ = sim::loadScenario(path_, options_.settings);
+  // The contents are part of the cache key: an edited scenario must not reuse old runs.
+  fileKey_ = std::filesystem::absolute(path_).lexically_normal().string() + "#" +
+             std::to_string(std::hash<std::string>{}(fileContents(path_)));
+  const std::size_t layers = base_.target.layers.size();
+  constexpr double mm = 1e-3, deg = std::numbers::pi / 180;
+  if (layers >= 3)
+    effects_.push_back({"interlayer_gaps",
+                        "a gap g between every two layers in front of the rear wall (gap_before += g for layers 2 to " +
+                            std::to_string(layers - 1) + ")",
+                        {"g", "mm", "gap_m", 0.0, 3 * mm, 0.0}});
+  for (std::size_t k = 1; k < layers; ++k) {
+    const std::string& name = base_.target.layers[k].name;
+    effects_.push_back({"gap:" + name, "a gap g in front of layer " + name + " (gap_before += g)",
+                        {"g", "mm", "gap_m", 0.0, 3 * mm, 0.0}});
+  }
+  for (const auto& layer : base_.target.layers)
+    effects_.push_back({"thickness:" + layer.name,
+                        "layer " + layer.name + "'s thickness (or areal density) is f times the scenario's",
+                        {"f", "", "thickness_factor", 0.5, 1.5, 1.0}});
+  effects_.push_back({"obliquity", "every shot is delta degrees more oblique than recorded (3D runs)",
+                      {"delta", "deg", "angle_error_rad", 0.0, 15 * deg, 0.0}});
+  if (!options_.cacheFile.empty() && std::filesystem::exists(options_.cacheFile)) {
+    try {
+      cache_ = nlohmann::json::parse(fileContents(options_.cacheFile));
+    } catch (const nlohmann::json::exception& e) {
+      throw InputError(InputLocation::file(options_.cacheFile), std::string("the run cache is not JSON: ") + e.what(),
+                       "a cache written by blt calibrate, or a new path");
+    }
+  }
+}
+
+std::string SolverModel::describe() const {
+  std::string s = "scenario " + path_;
+  for (const auto& kv : options_.settings) s += " --set " + kv;
+  return s;
+}
+
+std::size_t SolverModel::layerIndex(const std::string& label) const {
+  const auto& layers = base_.target.layers;
+  for (std::size_t k = 0; k < layers.size(); ++k)
+    if (layers[k].name == label) return k;
+  if (!label.empty() && label.find_first_not_of("0123456789") == std::string::npos) {
+    const std::size_t k = std::stoul(label);
+    if (k >= 1 && k <= layers.size()) return k - 1;
+  }
+  return std::string::npos;
+}
+
+void SolverModel::check(const MeasuredData& data) const {
+  if (!data.hasDiameters)
+    throw InputError(InputLocation::file(data.source, std::nullopt, "diameter_mm"), "the solver model needs each shot's diameter",
+                     "a diameter_mm column");
+  std::string names;
+  for (const auto& l : base_.target.layers) names += (names.empty() ? "" : ", ") + l.name;
+  for (const Observation& o : data.observations)
+    if (!o.layer.empty() && layerIndex(o.layer) == std::string::npos)
+      throw InputError(InputLocation::file(data.source, o.line, "layer"),
+                       "'" + o.layer + "' is not a layer of " + path_,
+                       "a layer name (" + names + ") or a number 1 to " + std::to_string(base_.target.layers.size()));
+}
+
+std::vector<std::string> SolverModel::settingsFor(const MeasuredCase& c, const EffectSetting& setting) const {
+  std::vector<std::string> s = options_.settings;
+  double angle = c.angle;
+  s.push_back("projectile.diameter=" + value(c.diameter, "mm", 1e3));
+  s.push_back("projectile.velocity=" + value(c.velocity, "m/s", 1.0));
+  if (const Effect* e = setting.effect) {
+    const auto& layers = base_.target.layers;
+    const auto gap = [&](std::size_t k) {
+      s.push_back("target.layer." + std::to_string(k + 1) + ".gap_before=" +
+                  value(layers[k].gapBefore + setting.value, "mm", 1e3));
+    };
+    if (e->name == "interlayer_gaps") {
+      for (std::size_t k = 1; k + 1 < layers.size(); ++k) gap(k);
+    } else if (e->name.rfind("gap:", 0) == 0) {
+      gap(layerIndex(e->name.substr(4)));
+    } else if (e->name.rfind("thickness:", 0) == 0) {
+      const std::size_t k = layerIndex(e->name.substr(10));
+      s.push_back("target.layer." + std::to_string(k + 1) + ".thickness=" + value(layers[k].thickness * setting.value, "mm", 1e3));
+    } else if (e->name == "obliquity") {
+      angle += setting.value;
+    }
+  }
+  s.push_back("projectile.angle=" + value(angle, "deg", 180 / std::numbers::pi));
+  return s;
+}
+
+nlohmann::json SolverModel::runOrRecall(const std::vector<std::string>& settings) {
+  std::string key = fileKey_;
+  for (const auto& kv : settings) key += "\n" + kv;
+  {
+    std::lock_guard lock(mutex_);
+    if (cache_.contains(key)) return cache_[key];
+  }
+  const sim::ImpactScenario scenario = sim::loadScenario(path_, settings);
+  sim::ImpactRunOptions runOptions;
+  runOptions.threads = options_.threads;
+  const sim::ImpactResult r = sim::runImpact(scenario, runOptions);
+  nlohmann::json kept = {{"perforated", r.summary["perforated"]},
+                         {"residual_velocity_m_s", r.summary["residual_velocity_m_s"]},
+                         {"layers", r.summary["layers"]},
+                         {"hole_size_mm", r.summary["hole_size_mm"]},
+                         {"status", r.summary["status"]},
+                         {"wall_time_s", r.summary["wall_time_s"]}};
+  std::lock_guard lock(mutex_);
+  cache_[key] = kept;
+  ++runsMade_;
+  saveCache();
+  if (options_.log) {
+    std::string line = kept["perforated"].get<bool>() ? "perforated" : "stopped";
+    for (const auto& kv : settings) line += " " + kv;
+    options_.log(line);
+  }
+  return kept;
+}
+
+void SolverModel::saveCache() {
+  if (options_.cacheFile.empty()) return;
+  // Written beside and renamed: an interrupted calibration leaves the previous cache whole.
+  const std::string tmp = options_.cacheFile + ".tmp";
+  {
+    std::ofstream out(tmp);
+    if (!out) throw InputError(InputLocation::file(options_.cacheFile), "cannot write the run cache", "a writable path");
+    out << cache_.dump() << "\n";
+  }
+  std::filesystem::rename(tmp, options_.cacheFile);
+}
+
+std::vector<Prediction> SolverModel::predict(const MeasuredData& data, const std::vector<std::size_t>& cases,
+                                             const EffectSetting& setting) {
+  std::vector<nlohmann::json> runs(cases.size());
+  std::atomic<std::size_t> next{0};
+  std::exception_ptr failure;
+  std::mutex failureMutex;
+  const auto worker = [&] {
+    for (std::size_t k; (k = next++) < cases.size();) {
+      try {
+        runs[k] = runOrRecall(settingsFor(data.cases.at(cases[k]), setting));
+      } catch (...) {
+        std::lock_guard lock(failureMutex);
+        if (!failure) failure = std::current_exception();
+        next = cases.size();
+      }
+    }
+  };
+  const int jobs = std::max(1, std::min<int>(options_.jobs, static_cast<int>(cases.size())));
+  std::vector<std::thread> pool;
+  for (int j = 1; j < jobs; ++j) pool.emplace_back(worker);
+  worker();
+  for (auto& t : pool) t.join();
+  if (failure) std::rethrow_exception(failure);
+
+  std::vector<Prediction> out;
+  for (const nlohmann::json& r : runs) {
+    Prediction p;
+    p.perforated = r["perforated"].get<bool>();
+    // A stopped shot has no residual velocity; the measured data write it as 0.
+    p.residualVelocity = p.perforated ? r["residual_velocity_m_s"].get<double>() : 0.0;
+    // Every label the data may use for a layer gets that layer's hole.
+    for (const Observation& o : data.observations) {
+      if (o.layer.empty()) continue;
+      const std::size_t k = layerIndex(o.layer);
+      const auto& h = r["hole_size_mm"].at(k);
+      p.holes.push_back({o.layer, {h.at(0).get<double>() * 1e-3, h.at(1).get<double>() * 1e-3}});
+    }
+    out.push_back(std::move(p));
+  }
+  return out;
+}
+
+}  // namespace blt::calibrate
