@@ -12,6 +12,7 @@
 #include <sstream>
 
 #include "blt/ble/christiansen.hpp"
+#include "blt/campaign/database.hpp"
 #include "blt/ble/curve.hpp"
 #include "blt/ble/fit.hpp"
 #include "blt/ble/impact_data.hpp"
@@ -95,7 +96,8 @@ std::optional<double> standardError(const ble::FitResult& r, size_t i) {
 struct FitCommandOptions {
   std::vector<std::string> dataFiles;
   std::string db, name, method = "two-stage", pyblossum;
-  std::vector<std::string> where;
+  std::vector<std::string> where, campaigns;
+  std::string campaignDb;
   double density = 0;
   int folds = 0;
   // Defaults from FitOptions, so that the help shows them.
@@ -142,9 +144,12 @@ void runFit(const CLI::App& cmd, const FitCommandOptions& o) {
   if (!o.where.empty() && o.pyblossum.empty())
     throw InputError(InputLocation::flag("--where"), "--where filters a pyBLOSSUM database, but none is given",
                      "--pyblossum FILE --where column=value");
-  if (o.dataFiles.empty() && o.pyblossum.empty())
+  if (!o.campaigns.empty() && o.campaignDb.empty())
+    throw InputError(InputLocation::flag("--campaign"), "--campaign needs the run database it is in",
+                     "--campaign NAME --campaign-db FILE (--db is the BLE store the fit goes to)");
+  if (o.dataFiles.empty() && o.pyblossum.empty() && o.campaigns.empty())
     throw InputError(InputLocation{{}, std::nullopt, "DATA"}, "no impact data given",
-                     "one or more impact CSV files and/or --pyblossum FILE");
+                     "one or more impact CSV files, --pyblossum FILE and/or --campaign NAME --campaign-db FILE");
 
   // Refuse an existing name before the (possibly long) fit; the store itself checks again when saving.
   if (!o.replace && std::filesystem::exists(o.db)) {
@@ -171,6 +176,18 @@ void runFit(const CLI::App& cmd, const FitCommandOptions& o) {
     const auto read = ble::readPyblossum(o.pyblossum, conditions);
     points.insert(points.end(), read.begin(), read.end());
     origin += (origin.empty() ? "" : "; ") + ("pyBLOSSUM " + o.pyblossum + filter);
+  }
+
+  if (!o.campaigns.empty()) {
+    if (!std::filesystem::exists(o.campaignDb))
+      throw InputError(InputLocation::flag("--campaign-db"), "no such file '" + o.campaignDb + "'",
+                       "a run database made by blt campaign run");
+    const campaign::RunDatabase runs(o.campaignDb);
+    for (const auto& name : o.campaigns) {
+      const auto read = campaign::campaignImpactPoints(runs, name);
+      points.insert(points.end(), read.begin(), read.end());
+      origin += (origin.empty() ? "" : "; ") + ("campaign " + name + " in " + o.campaignDb);
+    }
   }
 
   // Fit first: a failed fit must leave the store untouched.
@@ -594,6 +611,9 @@ void registerBleCommand(CLI::App& app) {
                     "(e.g. --where wall_thick=0.318cm --where bumper_mat=AA6061-T6)")
         ->allow_extra_args(false);
     cmd->add_flag("--replace", o->replace, "Overwrite a fit of the same name");
+    cmd->add_option("--campaign", o->campaigns,
+                    "Take every completed run of this campaign as a data point (repeatable; with --campaign-db)");
+    cmd->add_option("--campaign-db", o->campaignDb, "Run database of blt campaign run that holds the --campaign runs");
     addJsonFlag(*cmd, o->json);
     cmd->callback([cmd, o] { runFit(*cmd, *o); });
   }

@@ -14,4 +14,5 @@ void registerSimCommand(CLI::App& app);                    // sim.cpp
 void registerSimScenarioCommands(CLI::App& sim);          // sim_scenario.cpp: sim run, sim bisect
 void registerBenchCommand(CLI::App& app);                  // sim.cpp
 void registerCalibrateCommand(CLI::App& app);              // calibrate.cpp
+void registerCampaignCommand(CLI::App& app);               // campaign.cpp
 }  // namespace blt::cli

@@ -25,6 +25,7 @@ int main(int argc, char** argv) {
   blt::cli::registerSimCommand(app);
   blt::cli::registerBenchCommand(app);
   blt::cli::registerCalibrateCommand(app);
+  blt::cli::registerCampaignCommand(app);
   blt::cli::registerUnitsCommand(app);
 
   try {

@@ -1,0 +1,123 @@
+#pragma once
+// The run database of bisection campaigns: one SQLite file holding campaigns (their definitions), their points
+// (bracket, state, result) and every simulation made for them (inputs as settings, scenario hash, verdict,
+// measurements, wall time, tool version, failure reason).
+//
+// Journal mode WAL with synchronous = FULL: every write is one transaction, durable once it returns, so a
+// kill or a power cut loses at most the run in flight. The schema is versioned (PRAGMA user_version); a newer
+// file is refused. Several connections (threads or processes) may write one file: writers wait for each other
+// (busy timeout). SQLite's locking is not safe on network file systems: give each machine a file of its own
+// (--task) and merge them.
+
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "blt/ble/impact_data.hpp"
+#include "blt/campaign/campaign.hpp"
+
+struct sqlite3;
+
+namespace blt::campaign {
+
+struct CampaignRecord {
+  std::int64_t id = 0;
+  std::string name, definitionHash, variable, createdUtc;
+  nlohmann::json definition;
+  double projectileDensity = 0;  // kg/m³ of the scenario's projectile, for the exported points
+  int taskIndex = 1, taskCount = 1;  // the share of the points this file was made for (1/1: all)
+};
+
+enum class PointState { pending, started, resolved, unresolved };
+const char* toString(PointState s);
+
+struct PointRecord {
+  int index = 0;         // position in the campaign
+  std::string label;     // "4.5 km/s, 45 deg"
+  double velocity = 0, diameter = 0, angle = 0;  // SI; the bisected one is 0
+  double bracketLower = 0, bracketUpper = 0;     // the first bracket (SI)
+  std::string bracketOrigin;  // "campaign", "point" or "ble fit NAME: d_c X"
+  PointState state = PointState::pending;
+  std::optional<double> largestSafe, smallestPerforating;  // SI
+  int runs = 0;                 // runs its bisection took, bracket included (replayed ones too)
+  std::string message;          // why it is unresolved
+};
+
+enum class RunState { completed, failed };
+
+struct RunRecord {
+  std::int64_t id = 0;
+  int point = 0;        // the point's index
+  double value = 0;     // the bisected variable, SI
+  int attempt = 0;      // 0: the campaign's resolution; 1: the retry at half the spacing
+  std::vector<std::string> settings;
+  std::string scenarioHash;
+  RunState state = RunState::completed;
+  bool perforated = false, settled = false;
+  double diameter = 0, velocity = 0, angle = 0;  // SI, the shot
+  double residualVelocity = 0;                   // m/s
+  std::string reason;                            // why it failed
+  nlohmann::json measurements;                   // the run's summary (sim::ImpactResult::summary)
+  double wallSeconds = 0;
+  std::string toolVersion, createdUtc;
+};
+
+class RunDatabase {
+ public:
+  static constexpr int kSchemaVersion = 1;
+
+  // Opens or creates the file. Throws InputError naming it when it is not a blt run database, or a newer one.
+  explicit RunDatabase(const std::string& path);
+  ~RunDatabase();
+  RunDatabase(const RunDatabase&) = delete;
+  RunDatabase& operator=(const RunDatabase&) = delete;
+
+  // Records the campaign, or checks that the one recorded under its name has the same definition (else an
+  // InputError: the file or its scenario changed since). Returns its id.
+  std::int64_t ensureCampaign(const Campaign& c, double projectileDensity, int taskIndex, int taskCount);
+  std::optional<CampaignRecord> findCampaign(const std::string& name) const;
+  std::vector<CampaignRecord> campaigns() const;
+
+  // Records a point with its first bracket; a point recorded before keeps its bracket, which is returned, so a
+  // resumed campaign bisects exactly as it began even if the BLE store changed since.
+  PointRecord ensurePoint(std::int64_t campaign, const PointRecord& p);
+  void updatePoint(std::int64_t campaign, const PointRecord& p);
+  std::vector<PointRecord> points(std::int64_t campaign) const;
+
+  std::optional<RunRecord> findRun(std::int64_t campaign, const std::string& scenarioHash) const;
+  // Records a run unless one with its scenario hash is there already (another process made it meanwhile);
+  // returns the recorded one.
+  RunRecord recordRun(std::int64_t campaign, const RunRecord& r);
+  std::vector<RunRecord> runs(std::int64_t campaign) const;
+
+  // Copies every campaign, point and run of another run database into this one, in one transaction. A campaign
+  // present in both must have the same definition; runs are matched by scenario hash; a point takes the more
+  // advanced state (resolved or unresolved over started over pending). Returns the runs added.
+  int mergeFrom(const std::string& otherPath);
+
+  // PRAGMA integrity_check; "ok" when the file is sound.
+  std::string integrityCheck() const;
+  const std::string& path() const { return path_; }
+
+ private:
+  std::string path_;
+  sqlite3* db_ = nullptr;
+  // One connection, many worker threads: the statements of one call must not interleave with another's.
+  mutable std::recursive_mutex mutex_;
+};
+
+// Every completed run of a campaign as a binary impact point (failed runs have no outcome), source
+// "campaign NAME run ID", with the campaign's projectile density. Throws InputError naming the campaigns present
+// when there is none of that name.
+std::vector<ble::ImpactPoint> campaignImpactPoints(const RunDatabase& db, const std::string& campaign);
+// Writes them as the project's binary impact CSV (readImpactCsv reads it back). Returns the rows written.
+int writeImpactCsv(const std::string& path, const std::vector<ble::ImpactPoint>& points, const std::string& comment);
+
+std::string nowUtc();  // ISO 8601, seconds
+
+}  // namespace blt::campaign

@@ -1,0 +1,105 @@
+#pragma once
+// A thin layer over the SQLite C API for the run database: statements that finalize themselves and
+// transactions that roll back unless committed. Every failure is an InputError naming the database file and
+// what was being done, so a user sees which file is locked, full or not a database.
+#include <sqlite3.h>
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <string_view>
+
+#include "blt/core/error.hpp"
+
+namespace blt::campaign::sql {
+
+[[noreturn]] inline void fail(sqlite3* db, const std::string& file, const std::string& doing) {
+  throw InputError(InputLocation::file(file), "SQLite error while " + doing + ": " + sqlite3_errmsg(db));
+}
+
+inline void exec(sqlite3* db, const std::string& file, const std::string& sql, const std::string& doing) {
+  if (sqlite3_exec(db, sql.c_str(), nullptr, nullptr, nullptr) != SQLITE_OK) fail(db, file, doing);
+}
+
+// Parameters count from 1 and columns from 0, as in SQLite.
+class Query {
+ public:
+  Query(sqlite3* db, const std::string& file, std::string_view sql, std::string doing)
+      : db_(db), file_(file), doing_(std::move(doing)) {
+    if (sqlite3_prepare_v2(db, sql.data(), static_cast<int>(sql.size()), &stmt_, nullptr) != SQLITE_OK)
+      fail(db_, file_, doing_);
+  }
+  ~Query() { sqlite3_finalize(stmt_); }
+  Query(const Query&) = delete;
+  Query& operator=(const Query&) = delete;
+
+  Query& bind(int i, double v) { return ok(sqlite3_bind_double(stmt_, i, v)); }
+  Query& bind(int i, std::int64_t v) { return ok(sqlite3_bind_int64(stmt_, i, v)); }
+  Query& bind(int i, int v) { return ok(sqlite3_bind_int(stmt_, i, v)); }
+  Query& bind(int i, bool v) { return ok(sqlite3_bind_int(stmt_, i, v ? 1 : 0)); }
+  Query& bind(int i, const std::string& v) {
+    return ok(sqlite3_bind_text(stmt_, i, v.data(), static_cast<int>(v.size()), SQLITE_TRANSIENT));
+  }
+  Query& bind(int i, const char* v) { return bind(i, std::string(v)); }
+  // NULL for nullopt (and for NaN, which SQLite would store as NULL anyway).
+  Query& bind(int i, const std::optional<double>& v) {
+    return v && *v == *v ? bind(i, *v) : ok(sqlite3_bind_null(stmt_, i));
+  }
+
+  bool step() {
+    const int rc = sqlite3_step(stmt_);
+    if (rc == SQLITE_ROW) return true;
+    if (rc == SQLITE_DONE) return false;
+    fail(db_, file_, doing_);
+  }
+  void run() {
+    while (step()) {
+    }
+  }
+  int changes() const { return sqlite3_changes(db_); }
+
+  bool null(int c) const { return sqlite3_column_type(stmt_, c) == SQLITE_NULL; }
+  double real(int c) const { return sqlite3_column_double(stmt_, c); }
+  std::optional<double> optionalReal(int c) const { return null(c) ? std::nullopt : std::optional<double>(real(c)); }
+  std::int64_t integer(int c) const { return sqlite3_column_int64(stmt_, c); }
+  std::string text(int c) const {
+    const auto* p = sqlite3_column_text(stmt_, c);
+    return p ? std::string(reinterpret_cast<const char*>(p), static_cast<std::size_t>(sqlite3_column_bytes(stmt_, c)))
+             : std::string();
+  }
+
+ private:
+  Query& ok(int rc) {
+    if (rc != SQLITE_OK) fail(db_, file_, doing_);
+    return *this;
+  }
+  sqlite3* db_;
+  const std::string& file_;
+  std::string doing_;
+  sqlite3_stmt* stmt_ = nullptr;
+};
+
+// BEGIN IMMEDIATE: the write lock is taken first (waiting out other writers under the busy timeout), so a
+// transaction cannot fail halfway for want of it; without commit() the destructor rolls back.
+class WriteTransaction {
+ public:
+  WriteTransaction(sqlite3* db, const std::string& file) : db_(db), file_(file) {
+    exec(db_, file_, "BEGIN IMMEDIATE", "starting a transaction");
+  }
+  ~WriteTransaction() {
+    if (!done_) sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
+  }
+  WriteTransaction(const WriteTransaction&) = delete;
+  WriteTransaction& operator=(const WriteTransaction&) = delete;
+  void commit() {
+    exec(db_, file_, "COMMIT", "committing");
+    done_ = true;
+  }
+
+ private:
+  sqlite3* db_;
+  const std::string& file_;
+  bool done_ = false;
+};
+
+}  // namespace blt::campaign::sql
