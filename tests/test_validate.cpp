@@ -1,0 +1,78 @@
+// blt validate: the report's bookkeeping (its physics is what it reports, not what CI checks). The runs are
+// handed over in runs.jsonl, as a finished earlier report leaves them, so these tests run no simulation.
+#include <doctest/doctest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "run_blt.hpp"
+
+namespace {
+
+// A run summary with the outer-layer and plate holes given (the two layers Table 5 names).
+nlohmann::json summary(bool perforated, double outerMm, double plateMm) {
+  return {{"perforated", perforated},
+          {"hole_size_mm", {{outerMm, outerMm}, {5.0, 5.0}, {4.0, 4.0}, {plateMm, plateMm}}}};
+}
+
+}  // namespace
+
+TEST_CASE("validate: Table 5 errors are against seed 000's measured holes, runs come from runs.jsonl") {
+  const auto dir = std::filesystem::temp_directory_path() / "blt_validate_table5";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  {
+    std::ofstream log(dir / "runs.jsonl");
+    // Cases 03 (1.4 mm, 3.02 km/s) and 05 (1.2 mm, 4.03 km/s) of seed 000 Table 1, both models.
+    for (const char* model : {"original", "corrected"}) {
+      const bool corrected = std::string(model) == "corrected";
+      log << nlohmann::json{{"key", std::string("scenarios/fabric_al_") + model +
+                                        ".toml --set projectile.diameter=1.4mm --set projectile.velocity=3.02km/s "
+                                        "--set projectile.angle=0deg"},
+                            {"summary", summary(true, corrected ? 2.0 : 4.0, 2.1)}}
+                 .dump()
+          << "\n";
+      log << nlohmann::json{{"key", std::string("scenarios/fabric_al_") + model +
+                                        ".toml --set projectile.diameter=1.2mm --set projectile.velocity=4.03km/s "
+                                        "--set projectile.angle=0deg"},
+                            {"summary", summary(true, corrected ? 1.8 : 3.6, 1.0)}}
+                 .dump()
+          << "\n";
+    }
+    log << "{\"key\": \"cut short by a kill";  // a last line left half-written must be skipped
+  }
+  const BltRun r = runBlt("validate --only table5 --out '" + dir.string() + "'");
+  REQUIRE_MESSAGE(r.status == 0, r.output);
+  CHECK(r.output.find("0 runs made, 4 reused") != std::string::npos);
+  std::ifstream in(dir / "validation.json");
+  const auto doc = nlohmann::json::parse(in);
+  const auto& rows = doc["sections"]["table5"]["comparisons"];
+  REQUIRE(rows.size() == 8);
+  // Case 03 outer layer, corrected: measured 2.0 x 1.8 mm (seed 000 Table 5), mean 1.9; ours 2.0.
+  CHECK(rows[1]["item"] == "case 03 outer_layer, corrected");
+  CHECK(rows[1]["measured"].get<double>() == doctest::Approx(1.9));
+  CHECK(rows[1]["seed_model"].get<double>() == doctest::Approx(2.55));  // 2.7 x 2.4
+  CHECK(rows[1]["error"].get<double>() == doctest::Approx(0.1 / 1.9));
+  CHECK(rows[1]["met"] == true);
+  // Case 05 plate, corrected: measured 2.4 x 1.1 (mean 1.75), ours 1.0: -43 %, missed.
+  CHECK(rows[7]["item"] == "case 05 aluminum_plate, corrected");
+  CHECK(rows[7]["error"].get<double>() == doctest::Approx(1.0 / 1.75 - 1));
+  CHECK(rows[7]["met"] == false);
+  // Outer holes: corrected closer in both cases; plate holes: equal, so not closer.
+  CHECK(doc["sections"]["table5"]["corrected_closer"] == 2);
+  CHECK(std::filesystem::exists(dir / "table5_holes.svg"));
+  std::ifstream md(dir / "validation.md");
+  const std::string text((std::istreambuf_iterator<char>(md)), std::istreambuf_iterator<char>());
+  CHECK(text.find("Numeric targets met: 3 of 4") != std::string::npos);
+}
+
+TEST_CASE("validate: an unknown section is an error naming the sections there are") {
+  const BltRun r = runBlt("validate --only table9 --out '" +
+                          (std::filesystem::temp_directory_path() / "blt_validate_bad").string() + "'");
+  CHECK(r.status == 2);
+  CHECK(r.output.find("--only") != std::string::npos);
+  CHECK(r.output.find("no section 'table9'") != std::string::npos);
+  CHECK(r.output.find("table1, table5, table6, table7, seed003, weldox, seed001, convergence") != std::string::npos);
+}
