@@ -13,6 +13,7 @@ void registerBleCommand(CLI::App& app);                    // ble.cpp
 void registerSimCommand(CLI::App& app);                    // sim.cpp
 void registerSimScenarioCommands(CLI::App& sim);          // sim_scenario.cpp: sim run, sim bisect
 void registerBenchCommand(CLI::App& app);                  // sim.cpp
+void registerBenchScenarioCommand(CLI::App& bench);        // sim_scenario.cpp: bench scenario
 void registerValidateCommand(CLI::App& app);               // validate.cpp
 void registerCalibrateCommand(CLI::App& app);              // calibrate.cpp
 void registerCampaignCommand(CLI::App& app);               // campaign.cpp

@@ -311,6 +311,7 @@ void registerBenchCommand(CLI::App& app) {
   taylor->add_option("--threads", tb->threads, "OpenMP threads (default: all cores)");
   addJsonFlag(*taylor, tb->json);
   taylor->callback([tb] { benchTaylor(*tb); });
+  registerBenchScenarioCommand(*bench);
 }
 
 }  // namespace blt::cli
