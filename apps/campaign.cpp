@@ -12,6 +12,7 @@
 
 #include "blt/campaign/campaign.hpp"
 #include "blt/campaign/database.hpp"
+#include "blt/campaign/mpi.hpp"
 #include "blt/campaign/runner.hpp"
 #include "cli_support.hpp"
 #include "commands.hpp"
@@ -83,7 +84,7 @@ void printPoints(const std::vector<PointRecord>& points, const std::string& vari
 struct RunCommandOptions {
   std::string file, db, task = "1/1", bleDb;
   int jobs = 1;
-  bool json = false, quiet = false;
+  bool json = false, quiet = false, mpi = false;
 };
 
 void runCommand(const RunCommandOptions& o) {
@@ -95,13 +96,12 @@ void runCommand(const RunCommandOptions& o) {
     c.ble->db = o.bleDb;
   }
   const auto [taskIndex, taskCount] = parseTask(o.task, InputLocation::flag("--task"));
-  RunDatabase db(o.db);
   CampaignRunOptions ro;
   ro.jobs = o.jobs;
   ro.taskIndex = taskIndex;
   ro.taskCount = taskCount;
   const bool tty = isatty(fileno(stderr)) != 0;
-  if (!o.quiet && !o.json) {
+  if (!o.quiet && !o.json && !o.mpi) {
     std::fprintf(stderr, "campaign %s: %zu points (%s), %s bisection, base scenario %s; %d at once; database %s\n",
                  c.name.c_str(), c.points.size(), taskCount > 1 ? ("task " + o.task).c_str() : "all",
                  sim::toString(c.variable), c.scenarioPath.c_str(), o.jobs, o.db.c_str());
@@ -120,7 +120,17 @@ void runCommand(const RunCommandOptions& o) {
       }
       std::fflush(stderr);
     };
-  const CampaignRunResult r = runCampaign(c, db, ro);
+  CampaignRunResult r;
+  int ranks = 0;
+  if (o.mpi) {
+    const MpiRunResult m = runCampaignMpi(c, o.db, ro);
+    if (!m.coordinator) return;  // rank 0 reports
+    r = m.result;
+    ranks = m.ranks;
+  } else {
+    RunDatabase db(o.db);
+    r = runCampaign(c, db, ro);
+  }
   if (!o.quiet && tty && !o.json) std::fprintf(stderr, "\n");
 
   const std::string variable = sim::toString(c.variable);
@@ -136,7 +146,8 @@ void runCommand(const RunCommandOptions& o) {
     printJson({{"campaign", c.name},
                {"db", o.db},
                {"task", o.task},
-               {"jobs", o.jobs},
+               {"jobs", o.mpi ? ranks - 1 : o.jobs},
+               {"mpi_ranks", ranks},
                {"points", points},
                {"resolved", resolved},
                {"runs_simulated", r.simulated},
@@ -300,6 +311,10 @@ void registerCampaignCommand(CLI::App& app) {
                     "I/N: run only task I's share of the points (point k belongs to task k mod N + 1), for job arrays; "
                     "give each task its own --db and merge them");
     cmd->add_option("--ble-db", o->bleDb, "BLE store to seed brackets from, in place of the campaign's [ble] db");
+    cmd->add_flag("--mpi", o->mpi,
+                  std::string("Under mpirun: rank 0 walks the bisections and writes --db, the other ranks simulate "
+                              "(mpirun -n K blt campaign run CAMPAIGN --db FILE --mpi)") +
+                      (mpiAvailable() ? "" : "; this blt was built without MPI"));
     cmd->add_flag("--quiet", o->quiet, "No progress lines");
     addJsonFlag(*cmd, o->json);
     cmd->callback([o] { runCommand(*o); });
