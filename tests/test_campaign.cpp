@@ -102,7 +102,7 @@ Final finalOf(const RunDatabase& db, const std::string& campaign) {
 
 TEST_SUITE("campaign") {
 
-TEST_CASE("campaign file: points from a list and a grid, settings exact, paths relative to the file") {
+TEST_CASE("campaign file: points from a list and a grid with exact settings and paths relative to the file") {
   const fs::path dir = scratch("file");
   const fs::path file = writeFile(
       dir / "c.toml",
@@ -143,7 +143,7 @@ TEST_CASE("campaign file: points from a list and a grid, settings exact, paths r
   CHECK(loadCampaign(std::string(BLT_DATA_DIR) + "/campaigns/seed000_oblique.toml").points.size() == 22);
 }
 
-TEST_CASE("campaign file: a bad file is an error naming the file, line and key") {
+TEST_CASE("campaign file: a bad file is an error naming the file and line and key") {
   const fs::path dir = scratch("errors");
   const auto errorOf = [&](const std::string& text) {
     const fs::path file = writeFile(dir / "bad.toml", text);
@@ -199,7 +199,7 @@ TEST_CASE("campaign file: a bad file is an error naming the file, line and key")
   CHECK(e.find("ble.half_width") != std::string::npos);
 }
 
-TEST_CASE("campaign: every point resolved to the tolerance, runs recorded with their inputs, none twice") {
+TEST_CASE("campaign: every point resolved to the tolerance with its runs recorded and none twice") {
   const fs::path dir = scratch("basic");
   const Campaign c = parseCampaign(campaignText("basic", kBisect + kGrid), (dir / "basic.toml").string());
   RunDatabase db((dir / "runs.sqlite").string());
@@ -259,7 +259,7 @@ TEST_CASE("campaign: every point resolved to the tolerance, runs recorded with t
   CHECK_THROWS_WITH_AS(runCampaign(changed, db, o), doctest::Contains("another definition"), blt::InputError);
 }
 
-TEST_CASE("campaign: resumed after an interruption, the result is the uninterrupted one and no run is repeated") {
+TEST_CASE("campaign: resumed after an interruption it ends as the uninterrupted one without repeating a run") {
   const fs::path dir = scratch("resume");
   const Campaign c = parseCampaign(campaignText("resume", kBisect + kGrid), (dir / "c.toml").string());
   FakeSolver reference;
@@ -437,7 +437,7 @@ TEST_CASE("campaign: task split into parts and merged equals one run") {
                        blt::InputError);
 }
 
-TEST_CASE("campaign: a failed run is recorded with its reason and retried at half the spacing; an unresolvable point says why") {
+TEST_CASE("campaign: a failed run is recorded and retried at half the spacing and an unresolvable point says why") {
   const fs::path dir = scratch("failures");
   const Campaign c = parseCampaign(campaignText("fail", kBisect + "[grid]\nvelocity = [\"3 km/s\", \"5 km/s\", \"7 km/s\"]\n"),
                                    (dir / "c.toml").string());
@@ -542,7 +542,7 @@ TEST_CASE("campaign: brackets seeded from a BLE fit take fewer runs and widen wh
   CHECK(none.calls == 0);
 }
 
-TEST_CASE("campaign CLI: killed mid-campaign, the database is consistent and the rerun repeats no run") {
+TEST_CASE("campaign CLI: killed mid-campaign the database is consistent and the rerun repeats no run") {
   const fs::path dir = scratch("kill");
   const fs::path file = writeFile(
       dir / "quick.toml",
@@ -635,7 +635,7 @@ TEST_CASE("campaign CLI: killed mid-campaign, the database is consistent and the
 }  // TEST_SUITE
 
 #ifdef BLT_HAVE_MPI
-TEST_CASE("campaign CLI: under mpirun rank 0 records the runs the other ranks simulate, the same as without MPI" *
+TEST_CASE("campaign CLI: under mpirun rank 0 records what the other ranks simulate as without MPI" *
           doctest::test_suite("campaign")) {
   const fs::path dir = scratch("mpi");
   const fs::path file = writeFile(
