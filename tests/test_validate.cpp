@@ -7,9 +7,17 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
+#include "blt/campaign/campaign.hpp"
 #include "run_blt.hpp"
 
 namespace {
+
+// The key runs.jsonl files a run under: the scenario's path, the hash of its text, the settings.
+std::string runKey(const std::string& scenario, const std::string& settings) {
+  std::ifstream in(std::string(BLT_DATA_DIR) + "/" + scenario);
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  return scenario + " " + blt::campaign::scenarioHash(text, {}) + " " + settings;
+}
 
 // A run summary with the outer-layer and plate holes given (the two layers Table 5 names).
 nlohmann::json summary(bool perforated, double outerMm, double plateMm) {
@@ -28,15 +36,14 @@ TEST_CASE("validate: Table 5 errors are against seed 000's measured holes, runs 
     // Cases 03 (1.4 mm, 3.02 km/s) and 05 (1.2 mm, 4.03 km/s) of seed 000 Table 1, both models.
     for (const char* model : {"original", "corrected"}) {
       const bool corrected = std::string(model) == "corrected";
-      log << nlohmann::json{{"key", std::string("scenarios/fabric_al_") + model +
-                                        ".toml --set projectile.diameter=1.4mm --set projectile.velocity=3.02km/s "
-                                        "--set projectile.angle=0deg"},
+      const std::string scenario = std::string("scenarios/fabric_al_") + model + ".toml";
+      log << nlohmann::json{{"key", runKey(scenario, "--set projectile.diameter=1.4mm --set projectile.velocity=3.02km/s "
+                                                     "--set projectile.angle=0deg")},
                             {"summary", summary(true, corrected ? 2.0 : 4.0, 2.1)}}
                  .dump()
           << "\n";
-      log << nlohmann::json{{"key", std::string("scenarios/fabric_al_") + model +
-                                        ".toml --set projectile.diameter=1.2mm --set projectile.velocity=4.03km/s "
-                                        "--set projectile.angle=0deg"},
+      log << nlohmann::json{{"key", runKey(scenario, "--set projectile.diameter=1.2mm --set projectile.velocity=4.03km/s "
+                                                     "--set projectile.angle=0deg")},
                             {"summary", summary(true, corrected ? 1.8 : 3.6, 1.0)}}
                  .dump()
           << "\n";
