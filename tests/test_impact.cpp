@@ -195,6 +195,22 @@ TEST_CASE("verdict: a hole cut into the rear wall is measured and is an opening"
   }
 }
 
+TEST_CASE("verdict: a ring of failed material around a hole counts in the hole, not in the opening") {
+  // Reference: the geometry cut by hand: no material inside r = 0.6 mm, failed material out to r = 1.0 mm.
+  const ImpactScenario sc = parseScenario(plateScenario(), "plate.toml");
+  ImpactModel<2> m = buildImpactModel<2>(sc, 1);
+  auto& P = m.solver->particles();
+  for (std::size_t p = 0; p < P.size(); ++p) {
+    if (P.body[p] != 1) continue;
+    if (P.position[p][0] < 0.6e-3) P.active[p] = 0;
+    else if (P.position[p][0] < 1.0e-3) P.failed[p] = 1;
+  }
+  const PerforationVerdict v = assessPerforation<2>(m, sc.verdict, 1.0, true);
+  CHECK(v.holes[0].horizontal == relApprox(2.0e-3, 1e-6));
+  CHECK(v.holes[0].openingHorizontal == relApprox(1.2e-3, 1e-6));
+  CHECK(v.holes[0].openingVertical == relApprox(1.2e-3, 1e-6));
+}
+
 TEST_CASE("verdict: material separated behind the rear wall perforates it and gives the residual velocity") {
   const ImpactScenario sc = parseScenario(plateScenario(), "plate.toml");
   ImpactModel<2> m = buildImpactModel<2>(sc, 1);

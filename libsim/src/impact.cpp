@@ -58,10 +58,11 @@ ImpactResult runModel(const ImpactScenario& sc, const ImpactRunOptions& options)
   result.endTime = r.time;
 
   const PerforationVerdict& v = result.verdict;
-  nlohmann::json layers = nlohmann::json::array(), holes = nlohmann::json::array();
+  nlohmann::json layers = nlohmann::json::array(), holes = nlohmann::json::array(), openings = nlohmann::json::array();
   for (const LayerHole& h : v.holes) {
     layers.push_back(h.name);
     holes.push_back({h.horizontal * 1e3, h.vertical * 1e3});
+    openings.push_back({h.openingHorizontal * 1e3, h.openingVertical * 1e3});
   }
   // Energies of the whole target: the model holds a half, a quarter or one radian of it.
   const double whole = 1.0 / model.modelledFraction;
@@ -93,6 +94,7 @@ ImpactResult runModel(const ImpactScenario& sc, const ImpactRunOptions& options)
       {"residual_velocity_of", v.residualFrom},
       {"layers", layers},
       {"hole_size_mm", holes},
+      {"opening_size_mm", openings},
       {"kinetic_energy_fraction", v.kineticFraction},
       {"energy_initial", energy(r.initialEnergy)},
       {"energy_final", energy(r.finalEnergy)},

@@ -320,6 +320,10 @@ PerforationVerdict assessPerforation(const ImpactModel<D>& model, const VerdictO
       const std::vector<std::size_t> intact = bodyParticles(P, layer.body, false);
       const Voxels<D> vox(P, intact, layer.spacing);
       LayerHole hole = holeAround(vox, vox.largest(), model, 0.5 * (layer.front + layer.rear));
+      const Voxels<D> all(P, bodyParticles(P, layer.body, true), layer.spacing);
+      const LayerHole bare = holeAround(all, all.largest(), model, 0.5 * (layer.front + layer.rear));
+      hole.openingHorizontal = bare.horizontal;
+      hole.openingVertical = bare.vertical;
       hole.name = layer.name;
       v.holes.push_back(hole);
     }

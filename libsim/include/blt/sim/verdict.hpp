@@ -18,7 +18,9 @@
 //
 // Hole size of a layer: the opening of its intact (not failed) connected material, projected on the layer's
 // plane, around the shot line; two perpendicular extents as in seed 000 Table 5 (D_h along x, in the plane of
-// incidence, D_v along y). Axisymmetric runs give the diameter twice.
+// incidence, D_v along y). Axisymmetric runs give the diameter twice. Its opening: the same for all of its
+// connected material, failed points included (where nothing of the layer is left; smaller than the hole by
+// the ring of failed material around it, as a photograph of a torn fabric shows it).
 // Residual velocity (perforated only): the speed of the projectile's largest connected piece when it holds at
 // least half its mass (ordnance); otherwise that of the largest connected fragment behind the rear wall (a
 // debris cloud).
@@ -34,6 +36,7 @@ struct LayerHole {
   std::string name;
   double horizontal = 0;  // m, D_h
   double vertical = 0;    // m, D_v
+  double openingHorizontal = 0, openingVertical = 0;  // m, of all its material, failed included
 };
 
 struct PerforationVerdict {
