@@ -158,6 +158,13 @@ struct Comparison {
   }
 };
 
+struct CriticalDiameterCase {
+  std::string section, heading, table, figure;
+  std::vector<double> anglesDeg, velocitiesKmS;
+  std::vector<std::string> settings;  // before the velocity and angle (a resolution)
+  double lower = 0, upper = 0, tolerance = 0;  // m
+};
+
 class Report {
  public:
   Report(const ValidateOptions& o) : o_(o), log_((fs::path(o.out) / "runs.jsonl").string(), o.threads) {}
@@ -170,6 +177,7 @@ class Report {
   void table5();
   void table6();
   void table7();
+  void criticalDiameters(const CriticalDiameterCase& c);
   void seed003();
   void weldox();
   void seed001();
@@ -194,6 +202,21 @@ class Report {
     md_ << "\n![" << plot.options.title << "](" << name << ")\n";
   }
   void comparisonTable(const std::vector<Comparison>& rows, bool withSeedModel);
+  // Simulated against measured, with the y = x line.
+  void parityFigure(const std::string& name, const std::string& title, const std::string& quantity,
+                    const std::vector<svg::Series>& series) {
+    svg::Plot p{{}, series, {}};
+    p.options.title = title;
+    p.options.xLabel = "Measured " + quantity;
+    p.options.yLabel = "Simulated " + quantity;
+    p.options.identityLine = true;
+    figure(name, p);
+  }
+  static json toJson(const std::vector<Comparison>& rows) {
+    json j = json::array();
+    for (const auto& k : rows) j.push_back(k.toJson());
+    return j;
+  }
 
   const ValidateOptions& o_;
   RunLog log_;
@@ -333,87 +356,41 @@ void Report::table5() {
   }
   comparisonTable(rows, true);
   md_ << "\nCorrected model closer to the test than the original in " << closer << " of " << pairs << " holes.\n";
-  svg::Plot p{{}, {orig, corr}, {}};
-  p.options.title = "Seed 000 Table 5: hole diameters";
-  p.options.xLabel = "Measured hole D (mm)";
-  p.options.yLabel = "Simulated hole D (mm)";
-  p.options.identityLine = true;
-  figure("table5_holes.svg", p);
-  json j = json::array();
-  for (const auto& k : rows) j.push_back(k.toJson());
-  sections_["table5"] = {{"comparisons", j}, {"corrected_closer", closer}, {"holes", pairs}};
+  parityFigure("table5_holes.svg", "Seed 000 Table 5: hole diameters", "hole D (mm)", {orig, corr});
+  sections_["table5"] = {{"comparisons", toJson(rows)}, {"corrected_closer", closer}, {"holes", pairs}};
 }
 
-// seed 000 Tables 6 and 7: critical diameters (the seed's own simulations; no test goes there).
-void Report::table6() {
-  const auto t = csv::Table::read(dataFile("seed/seed000_table6_mpm.csv"));
-  md_ << "\n## Seed 000 Table 6: critical diameters at normal impact (target: within 15 % of the seed's simulation)\n\n"
-      << "Bisection on the diameter from [0.5, 2.5] mm to " << (o_.quick ? "±0.05" : "±0.02")
-      << " mm; the seed's d_c is the mean of its d_Ymin and d_Nmax.\n";
-  std::vector<Comparison> rows;
-  svg::Series seed, ours;
-  seed.label = "seed 000 Table 6 (MPM3D)";
-  seed.style = svg::Style::line;
-  ours.label = "ours";
-  for (double vKms : {3.0, 5.0, 7.0, 9.0}) {
-    double sum = 0;
-    int n = 0;
-    for (std::size_t r = 0; r < t.rowCount(); ++r)
-      if (std::abs(t.number(r, t.column("velocity_km_s")) - vKms) < 1e-9) sum += t.number(r, t.column("diameter_mm")), ++n;
-    const Limit l = ballisticLimit(log_, "scenarios/fabric_al_corrected.toml",
-                                   {"projectile.velocity=" + fmt(vKms, "%.6g") + "km/s"}, BisectVariable::diameter,
-                                   0.5e-3, 2.5e-3, o_.quick ? 0.05e-3 : 0.02e-3, "Table 6 at " + fmt(vKms) + " km/s");
-    Comparison k{"table6", fmt(vKms) + " km/s, 0 deg", "d_c", "mm"};
-    k.seedModel = sum / n;
-    k.ours = l.estimate() * 1e3;
-    k.target = "within 15 %";
-    k.tolerance = 0.15;
-    k.note = l.result.resolved ? l.bracket("mm", 1e3) : l.result.message;
-    rows.push_back(k);
-    seed.x.push_back(vKms);
-    seed.y.push_back(k.seedModel);
-    ours.x.push_back(vKms);
-    ours.y.push_back(k.ours);
-  }
-  comparisonTable(rows, true);
-  svg::Plot p{{}, {seed, ours}, {}};
-  p.options.title = "Seed 000 Table 6: critical diameter, 0 deg";
-  p.options.xLabel = "Impact velocity V (km/s)";
-  p.options.yLabel = "Critical diameter d_c (mm)";
-  figure("table6_critical_diameter.svg", p);
-  json j = json::array();
-  for (const auto& k : rows) j.push_back(k.toJson());
-  sections_["table6"] = {{"comparisons", j}};
-}
+// seed 000 Tables 6 and 7: critical diameters (the seed's own simulations; no test goes there). The seed's d_c
+// is the mean of its d_Ymin and d_Nmax rows.
 
-void Report::table7() {
-  const auto t = csv::Table::read(dataFile("seed/seed000_table7_mpm.csv"));
-  // 3D half models: at the seed's 0.1 mm a run takes about 8 min here, so this section runs at 0.2 mm (and says so).
-  const std::vector<std::string> resolution{"resolution.particle_spacing=0.2mm", "resolution.cell_size=0.4mm"};
-  md_ << "\n## Seed 000 Table 7: critical diameters at 45 and 60 deg (3D half model at 0.2 mm spacing, twice the "
-         "seed's)\n";
+void Report::criticalDiameters(const CriticalDiameterCase& c) {
+  const auto t = csv::Table::read(dataFile(c.table));
+  md_ << "\n## " << c.heading << "\n\nBisection on the diameter from [" << fmt(c.lower * 1e3) << ", "
+      << fmt(c.upper * 1e3) << "] mm to \u00b1" << fmt(c.tolerance * 1e3) << " mm; the seed's d_c is the mean of its "
+      << "d_Ymin and d_Nmax.\n";
   std::vector<Comparison> rows;
   std::vector<svg::Series> series;
-  for (double angle : {45.0, 60.0}) {
+  for (double angle : c.anglesDeg) {
     svg::Series seed, ours;
-    seed.label = "seed, " + fmt(angle) + " deg";
+    seed.label = "seed 000, " + fmt(angle) + " deg";
     seed.style = svg::Style::line;
     ours.label = "ours, " + fmt(angle) + " deg";
-    for (double vKms : {3.0, 6.0, 9.0}) {
+    seed.colour = ours.colour = svg::paletteColour(series.size() / 2);
+    for (double vKms : c.velocitiesKmS) {
       double sum = 0;
       int n = 0;
       for (std::size_t r = 0; r < t.rowCount(); ++r)
         if (std::abs(t.number(r, t.column("velocity_km_s")) - vKms) < 1e-9 &&
             std::abs(t.number(r, t.column("angle_deg")) - angle) < 1e-9)
           sum += t.number(r, t.column("diameter_mm")), ++n;
-      std::vector<std::string> s = resolution;
+      std::vector<std::string> s = c.settings;
       s.push_back("projectile.velocity=" + fmt(vKms, "%.6g") + "km/s");
-      s.push_back("projectile.angle=" + fmt(angle) + "deg");
-      const Limit l = ballisticLimit(log_, "scenarios/fabric_al_corrected.toml", s, BisectVariable::diameter, 0.6e-3,
-                                     2.6e-3, o_.quick ? 0.1e-3 : 0.04e-3,
-                                     "Table 7 at " + fmt(vKms) + " km/s, " + fmt(angle) + " deg");
-      Comparison k{"table7", fmt(vKms) + " km/s, " + fmt(angle) + " deg", "d_c", "mm"};
-      k.seedModel = sum / n;
+      if (angle != 0) s.push_back("projectile.angle=" + fmt(angle) + "deg");
+      const std::string item = fmt(vKms) + " km/s, " + fmt(angle) + " deg";
+      const Limit l = ballisticLimit(log_, "scenarios/fabric_al_corrected.toml", s, BisectVariable::diameter, c.lower,
+                                     c.upper, c.tolerance, c.section + " at " + item);
+      Comparison k{c.section, item, "d_c", "mm"};
+      k.seedModel = n ? sum / n : NAN;
       k.ours = l.estimate() * 1e3;
       k.target = "within 15 %";
       k.tolerance = 0.15;
@@ -424,19 +401,34 @@ void Report::table7() {
       ours.x.push_back(vKms);
       ours.y.push_back(k.ours);
     }
-    seed.colour = ours.colour = svg::paletteColour(series.size() / 2);
     series.push_back(seed);
     series.push_back(ours);
   }
   comparisonTable(rows, true);
   svg::Plot p{{}, series, {}};
-  p.options.title = "Seed 000 Table 7: critical diameter, oblique";
+  p.options.title = c.heading.substr(0, c.heading.find(" ("));
   p.options.xLabel = "Impact velocity V (km/s)";
   p.options.yLabel = "Critical diameter d_c (mm)";
-  figure("table7_critical_diameter.svg", p);
+  figure(c.figure, p);
   json j = json::array();
   for (const auto& k : rows) j.push_back(k.toJson());
-  sections_["table7"] = {{"comparisons", j}, {"resolution", resolution}};
+  sections_[c.section] = {{"comparisons", j}, {"settings", c.settings}};
+}
+
+void Report::table6() {
+  criticalDiameters({"table6", "Seed 000 Table 6: critical diameters at normal impact (target: within 15 % of the seed's simulation)",
+                     "seed/seed000_table6_mpm.csv", "table6_critical_diameter.svg", {0.0}, {3.0, 5.0, 7.0, 9.0}, {},
+                     0.5e-3, 2.5e-3, o_.quick ? 0.05e-3 : 0.02e-3});
+}
+
+void Report::table7() {
+  // 3D half models: at the seed's 0.1 mm a run takes about 8 min here, so this section runs at 0.2 mm (and says so).
+  criticalDiameters({"table7",
+                     "Seed 000 Table 7: critical diameters at 45 and 60 deg (3D half model at 0.2 mm spacing, twice the "
+                     "seed's; target: within 15 %)",
+                     "seed/seed000_table7_mpm.csv", "table7_critical_diameter.svg", {45.0, 60.0}, {3.0, 6.0, 9.0},
+                     {"resolution.particle_spacing=0.2mm", "resolution.cell_size=0.4mm"}, 0.6e-3, 2.6e-3,
+                     o_.quick ? 0.1e-3 : 0.04e-3});
 }
 
 // seed 003 Table 6: ballistic limit velocities of the Q235 targets (experiment), Table 7 (the seed's SPH-FEM).
@@ -484,15 +476,8 @@ void Report::seed003() {
     same &= measuredOrder[i].second == oursOrder[i].second;
   }
   md_ << "\nOrder, measured: " << mo << "; ours: " << oo << " (" << (same ? "same" : "**different**") << ").\n";
-  svg::Plot p{{}, {pts}, {}};
-  p.options.title = "Seed 003: ballistic limit velocities";
-  p.options.xLabel = "Measured v_bl (m/s)";
-  p.options.yLabel = "Simulated v_bl (m/s)";
-  p.options.identityLine = true;
-  figure("seed003_ballistic_limits.svg", p);
-  json j = json::array();
-  for (const auto& k : rows) j.push_back(k.toJson());
-  sections_["seed003"] = {{"comparisons", j}, {"same_order", same}};
+  parityFigure("seed003_ballistic_limits.svg", "Seed 003: ballistic limit velocities", "v_bl (m/s)", {pts});
+  sections_["seed003"] = {{"comparisons", toJson(rows)}, {"same_order", same}};
 }
 
 // seed 002: Weldox 460E 10 mm, blunt projectile at 277.5 m/s, measured residual 197.9 m/s.
@@ -540,15 +525,8 @@ void Report::seed001() {
     pts.y.push_back(k.ours);
   }
   comparisonTable(rows, true);
-  svg::Plot p{{}, {pts}, {}};
-  p.options.title = "Seed 001 Table 3: first-bumper holes";
-  p.options.xLabel = "Measured hole D (mm)";
-  p.options.yLabel = "Simulated hole D (mm)";
-  p.options.identityLine = true;
-  figure("seed001_holes.svg", p);
-  json j = json::array();
-  for (const auto& k : rows) j.push_back(k.toJson());
-  sections_["seed001"] = {{"comparisons", j}};
+  parityFigure("seed001_holes.svg", "Seed 001 Table 3: first-bumper holes", "hole D (mm)", {pts});
+  sections_["seed001"] = {{"comparisons", toJson(rows)}};
 }
 
 // The same quantities at the seed's resolution and at half its spacing.
