@@ -410,9 +410,7 @@ void Report::criticalDiameters(const CriticalDiameterCase& c) {
   p.options.xLabel = "Impact velocity V (km/s)";
   p.options.yLabel = "Critical diameter d_c (mm)";
   figure(c.figure, p);
-  json j = json::array();
-  for (const auto& k : rows) j.push_back(k.toJson());
-  sections_[c.section] = {{"comparisons", j}, {"settings", c.settings}};
+  sections_[c.section] = {{"comparisons", toJson(rows)}, {"settings", c.settings}};
 }
 
 void Report::table6() {
