@@ -275,6 +275,7 @@ CalibrationResult calibrate(Model& model, const MeasuredData& data, const Calibr
     const auto grid = gridOf(p, gridPoints);
     fit.parameter = fit1d(memo, data, yard, rows, all, p, grid, refineSteps);
     for (std::size_t c : all) fit.predictions.push_back(memo.at(fit.parameter, c));
+    for (double x : grid) fit.profile.emplace_back(x, caseErrors(data, yard, rows, all, memo.get(x, all)).combined());
     fit.fitted = summarise(data, yard, fit.predictions);
     fit.explainedShare = result.before.combined > 0
                              ? 1 - std::pow(fit.fitted.combined / result.before.combined, 2)
@@ -376,6 +377,8 @@ nlohmann::json toJson(const CalibrationResult& r, const MeasuredData& data) {
   for (const EffectFit& f : r.ranking) {
     nlohmann::json folds = nlohmann::json::array();
     for (double x : f.foldParameters) folds.push_back(x);
+    nlohmann::json profile = nlohmann::json::array();
+    for (const auto& [x, e] : f.profile) profile.push_back({{"parameter", x}, {"error", e}});
     ranking.push_back({{"effect", f.effect.name},
                        {"description", f.effect.description},
                        {"parameters", {{f.effect.parameter.jsonKey, f.parameter}}},
@@ -392,7 +395,8 @@ nlohmann::json toJson(const CalibrationResult& r, const MeasuredData& data) {
                        {"t_statistic", std::isfinite(f.tStatistic) ? nlohmann::json(f.tStatistic) : nlohmann::json("inf")},
                        {"accepted", f.accepted},
                        {"verdict", f.verdict},
-                       {"evaluations", f.evaluations}});
+                       {"evaluations", f.evaluations},
+                       {"profile", profile}});
   }
   const EffectFit* w = r.winningFit();
   nlohmann::json features = nlohmann::json::array();

@@ -161,6 +161,8 @@ std::vector<std::string> writeReport(const std::string& directory, const Calibra
        << withUnit(f.effect.parameter.upper, f.effect.parameter.unit) << ", off at "
        << withUnit(f.effect.parameter.neutral, f.effect.parameter.unit) << "; fold fits:";
     for (double x : f.foldParameters) md << " " << withUnit(x, f.effect.parameter.unit);
+    md << "; error on all cases over the grid:";
+    for (const auto& [x, e] : f.profile) md << " " << withUnit(x, f.effect.parameter.unit) << ": " << num(e, 3) << ",";
     md << "\n";
   }
   md << "\n## Predicted against measured\n\n";

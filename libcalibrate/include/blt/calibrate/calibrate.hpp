@@ -76,6 +76,8 @@ struct EffectFit {
   std::vector<Prediction> predictions;         // every case at `parameter`
   std::vector<Prediction> heldoutPredictions;  // every case predicted by the fit without its fold
   int evaluations = 0;                          // parameter values at which the model was run
+  // E on all cases at each grid value (SI parameter, error): how the fit sees the parameter.
+  std::vector<std::pair<double, double>> profile;
 };
 
 struct FeatureCorrelation {
