@@ -180,7 +180,7 @@ TEST_CASE("calibrate: binary outcomes alone locate a raised ballistic limit betw
   CHECK(r.winningFit()->fitted.groups.at(ErrorGroup::outcome).misclassified == 0);
 }
 
-TEST_CASE("calibrate: the report and the JSON carry the effect, its parameter and the errors before and after") {
+TEST_CASE("calibrate: the report and the JSON carry the effect and its parameter and the errors before and after") {
   const MeasuredData data = parse(residualCsv(1.0 / 1.5, baseLimit, 4.0, 11));
   const CalibrationResult r = runAnalytic(data);
   const nlohmann::json j = toJson(r, data);
@@ -203,7 +203,7 @@ TEST_CASE("calibrate: the report and the JSON carry the effect, its parameter an
   fs::remove_all(dir);
 }
 
-TEST_CASE("calibrate: measured files with problems give errors naming file, line and column") {
+TEST_CASE("calibrate: measured files with problems give errors naming file and line and column") {
   CHECK(messageOf([] { parse("case,diameter_mm,perforated\n1,1.0,Y\n"); }).find("velocity_km_s") != std::string::npos);
   const std::string notNumber = messageOf([] { parse("velocity_km_s,perforated\n3.1,Y\nfast,N\n"); });
   CHECK(notNumber.find("measured.csv") != std::string::npos);
