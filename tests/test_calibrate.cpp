@@ -231,7 +231,9 @@ TEST_CASE("calibrate: measured files with problems give errors naming file and l
 
 TEST_CASE("calibrate: the solver model turns cases and effects into scenario settings") {
   const std::string scenario = std::string(BLT_DATA_DIR) + "/scenarios/fabric_al_original.toml";
-  SolverModel model(scenario, {});
+  SolverModelOptions options;
+  options.cardDirectory = tempDir("cards");
+  SolverModel model(scenario, options);
   MeasuredCase shot;
   shot.diameter = 1.2e-3;
   shot.velocity = 4030;
@@ -251,12 +253,31 @@ TEST_CASE("calibrate: the solver model turns cases and effects into scenario set
   CHECK(has(thick, "target.layer.1.thickness=0.5mm"));
   const auto oblique = model.settingsFor(shot, {&findEffect(model, "obliquity", {}), 10 * std::numbers::pi / 180});
   CHECK(has(oblique, "projectile.angle=10deg"));
+  // A strength factor is a derived card with the flow stresses scaled, set as the layer's material.
+  const auto strong = model.settingsFor(shot, {&findEffect(model, "strength:plate", {}), 1.5});
+  const auto card = std::find_if(strong.begin(), strong.end(),
+                                 [](const std::string& s) { return s.rfind("target.layer.4.material=", 0) == 0; });
+  REQUIRE(card != strong.end());
+  const Material scaled = loadMaterial(card->substr(card->find('=') + 1));
+  const Material original = sim::resolveMaterial("al_5a06", {});
+  CHECK(scaled.param("strength", "A") == doctest::Approx(1.5 * original.param("strength", "A")));
+  CHECK(scaled.param("strength", "B") == doctest::Approx(1.5 * original.param("strength", "B")));
+  CHECK(scaled.param("strength", "n") == doctest::Approx(original.param("strength", "n")));
+  CHECK(scaled.param("failure", "max_principal_stress") == doctest::Approx(original.param("failure", "max_principal_stress")));
+  const auto fabric = model.settingsFor(shot, {&findEffect(model, "strength:outer", {}), 0.5});
+  const auto fabricCard = std::find_if(fabric.begin(), fabric.end(),
+                                       [](const std::string& s) { return s.rfind("target.layer.1.material=", 0) == 0; });
+  REQUIRE(fabricCard != fabric.end());
+  const Material weak = loadMaterial(fabricCard->substr(fabricCard->find('=') + 1));
+  CHECK(weak.param("strength", "yield_stress") ==
+        doctest::Approx(0.5 * sim::resolveMaterial("outer_fabric", {}).param("strength", "yield_stress")));
   // Data it cannot predict.
   CHECK(messageOf([&] { model.check(parse("velocity_km_s,perforated\n3,Y\n")); }).find("diameter_mm") != std::string::npos);
   const std::string layer =
       messageOf([&] { model.check(parse("diameter_mm,velocity_km_s,layer,hole_h_mm\n1,3,bumper,2\n")); });
   CHECK(layer.find("'bumper' is not a layer") != std::string::npos);
   CHECK(layer.find("outer, mli, liner, plate") != std::string::npos);
+  fs::remove_all(options.cardDirectory);
 }
 
 TEST_CASE("calibrate: solver runs are kept in the run cache and not made again") {

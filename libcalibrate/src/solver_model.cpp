@@ -1,6 +1,7 @@
 #include "blt/calibrate/solver_model.hpp"
 
 #include <atomic>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -54,6 +55,14 @@ SolverModel::SolverModel(const std::string& scenarioPath, SolverModelOptions opt
     effects_.push_back({"thickness:" + layer.name,
                         "layer " + layer.name + "'s thickness (or areal density) is f times the scenario's",
                         {"f", "", "thickness_factor", 0.5, 1.5, 1.0}});
+  for (const auto& layer : base_.target.layers)
+    effects_.push_back({"strength:" + layer.name,
+                        "layer " + layer.name + "'s material has s times the flow stress of " + layer.material,
+                        {"s", "", "strength_factor", 0.5, 2.0, 1.0}});
+  if (options_.cardDirectory.empty())
+    options_.cardDirectory = options_.cacheFile.empty()
+                                 ? (std::filesystem::temp_directory_path() / "blt_calibrate_cards").string()
+                                 : (std::filesystem::path(options_.cacheFile).parent_path() / "cards").string();
   effects_.push_back({"obliquity", "every shot is delta degrees more oblique than recorded (3D runs)",
                       {"delta", "deg", "angle_error_rad", 0.0, 15 * deg, 0.0}});
   if (!options_.cacheFile.empty() && std::filesystem::exists(options_.cacheFile)) {
@@ -114,12 +123,43 @@ std::vector<std::string> SolverModel::settingsFor(const MeasuredCase& c, const E
     } else if (e->name.rfind("thickness:", 0) == 0) {
       const std::size_t k = layerIndex(e->name.substr(10));
       s.push_back("target.layer." + std::to_string(k + 1) + ".thickness=" + value(layers[k].thickness * setting.value, "mm", 1e3));
+    } else if (e->name.rfind("strength:", 0) == 0) {
+      const std::size_t k = layerIndex(e->name.substr(9));
+      s.push_back("target.layer." + std::to_string(k + 1) + ".material=" + strengthCard(k, setting.value));
     } else if (e->name == "obliquity") {
       angle += setting.value;
     }
   }
   s.push_back("projectile.angle=" + value(angle, "deg", 180 / std::numbers::pi));
   return s;
+}
+
+std::string SolverModel::strengthCard(std::size_t k, double factor) const {
+  const auto& layer = base_.target.layers[k];
+  Material m = sim::resolveMaterial(layer.material, InputLocation::file(path_, std::nullopt, "target.layer." + layer.name + ".material"));
+  if (!m.has("strength"))
+    throw InputError(InputLocation::file(path_, std::nullopt, "target.layer." + layer.name + ".material"),
+                     "material " + layer.material + " has no [strength] section to scale", "a layer with a strength model");
+  // The stresses of the flow curve; rate and temperature terms are ratios and stay.
+  int scaled = 0;
+  for (const char* key : {"A", "B", "yield_stress", "tangent_modulus"}) {
+    auto& params = m.sections["strength"].params;
+    if (auto it = params.find(key); it != params.end()) it->second *= factor, ++scaled;
+  }
+  if (scaled == 0)
+    throw InputError(InputLocation::file(m.path, std::nullopt, "strength"),
+                     "the strength model of " + layer.material + " has none of A, B, yield_stress, tangent_modulus",
+                     "a Johnson-Cook or bilinear strength model");
+  m.notes += " Derived by blt calibrate: flow stress x " + value(factor, "", 1.0) + ".";
+  std::filesystem::create_directories(options_.cardDirectory);
+  std::string id = layer.material;
+  for (char& c : id)
+    if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
+  const std::string card = (std::filesystem::path(options_.cardDirectory) / (id + "_strength_x" + value(factor, "", 1.0) + ".toml")).string();
+  std::ofstream out(card);
+  if (!out) throw InputError(InputLocation::file(card), "cannot write the derived material card", "a writable card directory");
+  out << materialToToml(m);
+  return card;
 }
 
 nlohmann::json SolverModel::runOrRecall(const std::vector<std::string>& settings) {

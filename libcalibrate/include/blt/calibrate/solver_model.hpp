@@ -6,6 +6,9 @@
 //                     (the coating's layers apart: seed 000's correction)
 //   gap:NAME          g in [0, 3 mm] added to gap_before of layer NAME (not the first)
 //   thickness:NAME    factor f in [0.5, 1.5] on layer NAME's thickness (a thickness or areal-density error)
+//   strength:NAME     factor s in [0.5, 2] on the flow stress of layer NAME's material (Johnson-Cook A and B, or
+//                     the bilinear yield stress and tangent modulus): a derived card written to the card
+//                     directory and set as the layer's material, so libsim needs no key of its own
 //   obliquity         an angle error in [0, 15 deg] added to every case's angle; not in the default list, since
 //                     a non-normal impact is a 3D half model (minutes a run): name it in --effects
 // No margin: an outcome is right or wrong (a bisection per case would give ln(d/d_c), at ~6 runs a case).
@@ -29,6 +32,7 @@ namespace blt::calibrate {
 struct SolverModelOptions {
   std::vector<std::string> settings;  // key=value applied to the scenario before any case or effect
   std::string cacheFile;              // empty: no cache kept between calls
+  std::string cardDirectory;          // derived material cards (strength:NAME); empty: beside the cache, or a temp dir
   int jobs = 1;                       // runs at once
   int threads = 1;                    // solver threads per run
   std::function<void(const std::string&)> log;  // told each run as it ends
@@ -53,6 +57,7 @@ class SolverModel : public Model {
 
  private:
   std::size_t layerIndex(const std::string& label) const;  // npos when not a layer
+  std::string strengthCard(std::size_t layer, double factor) const;  // path of the derived card
   nlohmann::json runOrRecall(const std::vector<std::string>& settings);
   void saveCache();
 
