@@ -11,102 +11,12 @@
 #include <set>
 #include <sstream>
 
+#include "blt/core/toml_keys.hpp"
 #include "blt/core/units.hpp"
 
 namespace blt::campaign {
 
 namespace {
-
-// Reads one table of the campaign file, marking the keys it is asked for; finish() rejects any other key.
-class Keys {
- public:
-  Keys(const toml::table& t, std::string prefix, const std::string& file) : t_(t), prefix_(std::move(prefix)), file_(file) {}
-
-  InputLocation at(const std::string& key) const {
-    InputLocation l = InputLocation::file(file_, std::nullopt, prefix_.empty() ? key : prefix_ + "." + key);
-    const toml::node* n = t_.get(key);
-    const int line = n ? static_cast<int>(n->source().begin.line) : static_cast<int>(t_.source().begin.line);
-    if (line > 0) l.line = line;
-    return l;
-  }
-  const toml::node* get(const std::string& key) {
-    seen_.insert(key);
-    return t_.get(key);
-  }
-  std::string text(const std::string& key, const std::string& fallback, bool required = false) {
-    const toml::node* n = get(key);
-    if (!n) {
-      if (required) throw InputError(at(key), "the required key is missing");
-      return fallback;
-    }
-    if (auto s = n->as_string()) return s->get();
-    throw InputError(at(key), "must be a string");
-  }
-  static double quantityOf(const toml::node& n, const units::Dimension& dim, const InputLocation& where) {
-    if (auto s = n.as_string()) return units::parse(s->get(), dim, where);
-    if (n.is_number()) {
-      if (dim == units::dimensionless) return *n.value<double>();
-      throw InputError(where, "the number has no unit; a unit is required",
-                       "a " + units::describe(dim) + " such as \"" + units::example(dim) + "\"");
-    }
-    throw InputError(where, "not a quantity", "a string with a unit such as \"" + units::example(dim) + "\"");
-  }
-  // NaN when absent and not required.
-  double quantity(const std::string& key, const units::Dimension& dim, bool required) {
-    const toml::node* n = get(key);
-    if (!n) {
-      if (required) throw InputError(at(key), "the required key is missing", "e.g. \"" + units::example(dim) + "\"");
-      return std::nan("");
-    }
-    return quantityOf(*n, dim, at(key));
-  }
-  double positive(const std::string& key, const units::Dimension& dim, bool required) {
-    const double v = quantity(key, dim, required);
-    if (t_.get(key) && !(v > 0)) throw InputError(at(key), "must be positive");
-    return v;
-  }
-  // A list of quantities ("2 km/s", ...); the location of each entry is its own line.
-  std::vector<double> quantities(const std::string& key, const units::Dimension& dim) {
-    const toml::node* n = get(key);
-    std::vector<double> values;
-    if (!n) return values;
-    const toml::array* a = n->as_array();
-    if (!a || a->empty())
-      throw InputError(at(key), "must be a non-empty list", "e.g. [\"" + units::example(dim) + "\", ...]");
-    for (const toml::node& e : *a) {
-      InputLocation where = at(key);
-      if (e.source().begin.line > 0) where.line = static_cast<int>(e.source().begin.line);
-      values.push_back(quantityOf(e, dim, where));
-    }
-    return values;
-  }
-  int integer(const std::string& key, int fallback, int lowest) {
-    const toml::node* n = get(key);
-    if (!n) return fallback;
-    const auto v = n->value_exact<int64_t>();
-    if (!v) throw InputError(at(key), "must be a whole number");
-    if (*v < lowest) throw InputError(at(key), "too small", "at least " + std::to_string(lowest));
-    return static_cast<int>(*v);
-  }
-  const toml::table* table(const std::string& key) {
-    const toml::node* n = get(key);
-    if (!n) return nullptr;
-    if (auto t = n->as_table()) return t;
-    throw InputError(at(key), "must be a table", "[" + (prefix_.empty() ? key : prefix_ + "." + key) + "]");
-  }
-  void finish() const {
-    std::string allowed;
-    for (const auto& k : seen_) allowed += (allowed.empty() ? "" : ", ") + k;
-    for (const auto& [k, node] : t_)
-      if (!seen_.count(std::string(k.str()))) throw InputError(at(std::string(k.str())), "unknown key", allowed);
-  }
-
- private:
-  const toml::table& t_;
-  std::string prefix_;
-  const std::string& file_;
-  std::set<std::string> seen_;
-};
 
 std::string fixedKey(const Campaign& c) {
   return c.variable == sim::BisectVariable::diameter ? "velocity" : "diameter";
@@ -121,30 +31,30 @@ double fixedValue(const Campaign& c, const CampaignPoint& p) {
   return c.variable == sim::BisectVariable::diameter ? p.velocity : p.diameter;
 }
 
-void readBisect(Keys k, Campaign& c) {
-  const std::string variable = k.text("variable", "diameter");
+void readBisect(TomlKeys k, Campaign& c) {
+  const std::string variable = k.string("variable", "diameter");
   if (variable != "diameter" && variable != "velocity")
     throw InputError(k.at("variable"), "unknown variable '" + variable + "'", "diameter or velocity");
   c.variable = variable == "diameter" ? sim::BisectVariable::diameter : sim::BisectVariable::velocity;
   const units::Dimension dim = variableDimension(c);
-  c.lower = k.positive("lower", dim, true);
-  c.upper = k.positive("upper", dim, true);
+  c.lower = k.positive("lower", dim, std::nan(""), true);
+  c.upper = k.positive("upper", dim, std::nan(""), true);
   if (!(c.lower < c.upper))
     throw InputError(k.at("upper"), "the bracket's upper end must lie above its lower end", "upper > lower");
-  c.tolerance = k.positive("tolerance", dim, true);
+  c.tolerance = k.positive("tolerance", dim, std::nan(""), true);
   c.maxRuns = k.integer("max_runs", c.maxRuns, 3);
   k.finish();
 }
 
-CampaignPoint readPoint(Keys k, const Campaign& c, int line) {
+CampaignPoint readPoint(TomlKeys k, const Campaign& c, int line) {
   CampaignPoint p;
   p.line = line;
-  const double fixed = k.positive(fixedKey(c), fixedDimension(c), true);
+  const double fixed = k.positive(fixedKey(c), fixedDimension(c), std::nan(""), true);
   (c.variable == sim::BisectVariable::diameter ? p.velocity : p.diameter) = fixed;
-  p.angle = k.quantity("angle", units::angle, false);
+  p.angle = k.quantity("angle", units::angle, std::nan(""), false);
   if (std::isnan(p.angle)) p.angle = 0;
-  p.lower = k.positive("lower", variableDimension(c), false);
-  p.upper = k.positive("upper", variableDimension(c), false);
+  p.lower = k.positive("lower", variableDimension(c), std::nan(""), false);
+  p.upper = k.positive("upper", variableDimension(c), std::nan(""), false);
   if (std::isnan(p.lower) != std::isnan(p.upper))
     throw InputError(k.at(std::isnan(p.lower) ? "upper" : "lower"), "a point's bracket needs both ends",
                      "lower and upper, or neither (the campaign's bracket)");
@@ -159,13 +69,13 @@ void checkAngle(double angle, const InputLocation& where) {
     throw InputError(where, "the angle from the target normal is out of range", "0 deg to 89 deg");
 }
 
-void readBle(Keys k, Campaign& c, const std::filesystem::path& dir) {
+void readBle(TomlKeys k, Campaign& c, const std::filesystem::path& dir) {
   BleSeed s;
-  s.db = (dir / k.text("db", "", true)).lexically_normal().string();
-  s.fit = k.text("fit", "", true);
-  const double density = k.positive("density", units::density, false);
+  s.db = (dir / k.string("db", "", true)).lexically_normal().string();
+  s.fit = k.string("fit", "", true);
+  const double density = k.positive("density", units::density, std::nan(""), false);
   s.density = std::isnan(density) ? 0 : density;
-  const double w = k.quantity("half_width", units::dimensionless, false);
+  const double w = k.quantity("half_width", units::dimensionless, std::nan(""), false);
   if (!std::isnan(w)) {
     if (!(w > 0 && w < 1)) throw InputError(k.at("half_width"), "out of range", "a fraction 0 < half_width < 1, e.g. 0.1");
     s.halfWidth = w;
@@ -270,11 +180,11 @@ Campaign parseCampaign(const std::string& text, const std::string& sourceName) {
   const std::filesystem::path dir = std::filesystem::path(sourceName).parent_path();
   Campaign c;
   c.path = sourceName;
-  Keys k(root, "", sourceName);
-  c.name = k.text("name", std::filesystem::path(sourceName).stem().string());
+  TomlKeys k(root, "", sourceName);
+  c.name = k.string("name", std::filesystem::path(sourceName).stem().string());
   if (c.name.empty()) throw InputError(k.at("name"), "must not be empty");
-  c.description = k.text("description", "");
-  const std::string scenario = k.text("scenario", "", true);
+  c.description = k.string("description", "");
+  const std::string scenario = k.string("scenario", "", true);
   c.scenarioPath = (dir / scenario).lexically_normal().string();
   {
     std::ifstream in(c.scenarioPath);
@@ -298,7 +208,7 @@ Campaign parseCampaign(const std::string& text, const std::string& sourceName) {
   }
   const toml::table* bisect = k.table("bisect");
   if (!bisect) throw InputError(k.at("bisect"), "the required table is missing", "[bisect] with variable, lower, upper, tolerance");
-  readBisect(Keys(*bisect, "bisect", sourceName), c);
+  readBisect(TomlKeys(*bisect, "bisect", sourceName), c);
 
   if (const toml::node* n = k.get("point")) {
     const toml::array* a = n->as_array();
@@ -306,7 +216,7 @@ Campaign parseCampaign(const std::string& text, const std::string& sourceName) {
     for (std::size_t i = 0; i < a->size(); ++i) {
       const toml::table* t = (*a)[i].as_table();
       if (!t) throw InputError(k.at("point"), "every point must be a table", "[[point]]");
-      const CampaignPoint p = readPoint(Keys(*t, "point." + std::to_string(i + 1), sourceName), c,
+      const CampaignPoint p = readPoint(TomlKeys(*t, "point." + std::to_string(i + 1), sourceName), c,
                                         static_cast<int>(t->source().begin.line));
       checkAngle(p.angle, InputLocation::file(sourceName, p.line > 0 ? std::optional<int>(p.line) : std::nullopt,
                                               "point." + std::to_string(i + 1) + ".angle"));
@@ -314,7 +224,7 @@ Campaign parseCampaign(const std::string& text, const std::string& sourceName) {
     }
   }
   if (const toml::table* g = k.table("grid")) {
-    Keys gk(*g, "grid", sourceName);
+    TomlKeys gk(*g, "grid", sourceName);
     const std::vector<double> fixed = gk.quantities(fixedKey(c), fixedDimension(c));
     std::vector<double> angles = gk.quantities("angle", units::angle);
     if (fixed.empty()) throw InputError(gk.at(fixedKey(c)), "the required key is missing", "a list such as [\"2 km/s\", \"3 km/s\"]");
@@ -333,7 +243,7 @@ Campaign parseCampaign(const std::string& text, const std::string& sourceName) {
   }
   if (c.points.empty())
     throw InputError(InputLocation::file(sourceName), "the campaign has no points", "[[point]] tables and/or a [grid] table");
-  if (const toml::table* b = k.table("ble")) readBle(Keys(*b, "ble", sourceName), c, dir);
+  if (const toml::table* b = k.table("ble")) readBle(TomlKeys(*b, "ble", sourceName), c, dir);
   k.finish();
 
   // Two points that fix the same values would bisect the same runs twice.

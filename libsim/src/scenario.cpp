@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "blt/analytic/laminate.hpp"
+#include "blt/core/toml_keys.hpp"
 #include "blt/core/units.hpp"
 
 namespace blt::sim {
@@ -56,113 +57,10 @@ double ImpactScenario::cellSize() const {
 
 namespace {
 
-// Reads one table of the scenario: every key it is asked for is marked, and finish() rejects the rest. Nodes
-// that a setting put there have no source line; their errors name the --set flag instead of the file.
-class TableReader {
- public:
-  TableReader(const toml::table& table, std::string path, std::string sourceName)
-      : table_(table), path_(std::move(path)), source_(std::move(sourceName)) {}
-
-  InputLocation at(const std::string& key) const {
-    const std::string full = path_.empty() ? key : path_ + "." + key;
-    const toml::node* n = table_.get(key);
-    if (n && n->source().begin.line == 0) return InputLocation{"--set", std::nullopt, full};
-    InputLocation l = InputLocation::file(source_, std::nullopt, full);
-    if (n) l.line = static_cast<int>(n->source().begin.line);
-    return l;
-  }
-  const toml::node* get(const std::string& key) {
-    seen_.insert(key);
-    return table_.get(key);
-  }
-  std::string string(const std::string& key, const std::string& fallback, bool required = false) {
-    const toml::node* n = get(key);
-    if (!n) {
-      if (required) throw InputError(at(key), "the required key is missing");
-      return fallback;
-    }
-    if (auto s = n->as_string()) return s->get();
-    throw InputError(at(key), "must be a string");
-  }
-  // A quantity with a unit ("1.2 mm"); dimensionless quantities may be plain numbers.
-  double quantity(const std::string& key, const units::Dimension& dim, double fallback, bool required = false) {
-    const toml::node* n = get(key);
-    if (!n) {
-      if (required)
-        throw InputError(at(key), "the required key is missing", "e.g. \"" + units::example(dim) + "\"");
-      return fallback;
-    }
-    if (auto s = n->as_string()) return units::parse(s->get(), dim, at(key));
-    if (auto v = n->value<double>()) {
-      if (dim == units::dimensionless) return *v;
-      throw InputError(at(key), "the number has no unit; a unit is required",
-                       "a " + units::describe(dim) + " such as \"" + units::example(dim) + "\"");
-    }
-    throw InputError(at(key), "not a quantity", "a string with a unit such as \"" + units::example(dim) + "\"");
-  }
-  double positive(const std::string& key, const units::Dimension& dim, double fallback, bool required = false) {
-    const double v = quantity(key, dim, fallback, required);
-    if (table_.get(key) && !(v > 0)) throw InputError(at(key), "must be positive");
-    return v;
-  }
-  double nonNegative(const std::string& key, const units::Dimension& dim, double fallback) {
-    const double v = quantity(key, dim, fallback);
-    if (!(v >= 0)) throw InputError(at(key), "must not be negative");
-    return v;
-  }
-  bool boolean(const std::string& key, bool fallback) {
-    const toml::node* n = get(key);
-    if (!n) return fallback;
-    if (auto b = n->value<bool>()) return *b;
-    throw InputError(at(key), "must be true or false");
-  }
-  int integer(const std::string& key, int fallback, int lowest) {
-    const toml::node* n = get(key);
-    if (!n) return fallback;
-    auto v = n->value<int64_t>();
-    if (!v) throw InputError(at(key), "must be a whole number");
-    if (*v < lowest) throw InputError(at(key), "too small", "at least " + std::to_string(lowest));
-    return static_cast<int>(*v);
-  }
-  template <class E>
-  E choice(const std::string& key, const std::vector<std::pair<std::string, E>>& options, E fallback) {
-    const toml::node* n = get(key);
-    if (!n) return fallback;
-    std::string allowed;
-    for (const auto& o : options) allowed += (allowed.empty() ? "" : ", ") + o.first;
-    auto s = n->as_string();
-    if (!s) throw InputError(at(key), "must be a string", allowed);
-    for (const auto& o : options)
-      if (o.first == s->get()) return o.second;
-    throw InputError(at(key), "unknown value '" + s->get() + "'", allowed);
-  }
-  const toml::table* table(const std::string& key) {
-    const toml::node* n = get(key);
-    if (!n) return nullptr;
-    if (auto t = n->as_table()) return t;
-    throw InputError(at(key), "must be a table ([" + (path_.empty() ? key : path_ + "." + key) + "])");
-  }
-  void finish() const {
-    std::string allowed;
-    for (const auto& k : seen_) allowed += (allowed.empty() ? "" : ", ") + k;
-    for (const auto& [k, node] : table_) {
-      const std::string key(k.str());
-      if (!seen_.count(key)) throw InputError(at(key), "unknown key", allowed);
-    }
-  }
-  std::string child(const std::string& key) const { return path_.empty() ? key : path_ + "." + key; }
-  const std::string& source() const { return source_; }
-
- private:
-  const toml::table& table_;
-  std::string path_, source_;
-  std::set<std::string> seen_;
-};
-
 const std::vector<std::pair<std::string, BoundaryKind>> kEdges = {
     {"non-reflecting", BoundaryKind::nonReflecting}, {"free", BoundaryKind::free}, {"fixed", BoundaryKind::fixed}};
 
-void readProjectile(TableReader r, ProjectileSpec& p) {
+void readProjectile(TomlKeys r, ProjectileSpec& p) {
   p.shape = r.choice<ProjectileShape>("shape", {{"sphere", ProjectileShape::sphere}, {"cylinder", ProjectileShape::cylinder}},
                                       ProjectileShape::sphere);
   p.diameter = r.positive("diameter", units::length, 0, true);
@@ -194,7 +92,7 @@ void readProjectile(TableReader r, ProjectileSpec& p) {
   r.finish();
 }
 
-void readLayer(TableReader r, LayerSpec& l, std::size_t index) {
+void readLayer(TomlKeys r, LayerSpec& l, std::size_t index) {
   l.name = r.string("name", "layer " + std::to_string(index + 1));
   l.material = r.string("material", "", true);
   l.thickness = r.positive("thickness", units::length, 0, true);
@@ -203,7 +101,7 @@ void readLayer(TableReader r, LayerSpec& l, std::size_t index) {
   r.finish();
 }
 
-void readTarget(TableReader r, TargetSpec& t) {
+void readTarget(TomlKeys r, TargetSpec& t) {
   t.lateralSize = r.positive("lateral_size", units::length, 0, true);
   t.edge = r.choice<BoundaryKind>("edge", kEdges, BoundaryKind::nonReflecting);
   const toml::node* layers = r.get("layer");
@@ -214,19 +112,19 @@ void readTarget(TableReader r, TargetSpec& t) {
     const toml::table* lt = (*list)[i].as_table();
     if (!lt) throw InputError(r.at("layer"), "every layer must be a table", "[[target.layer]]");
     LayerSpec l;
-    readLayer(TableReader(*lt, r.child("layer." + std::to_string(i + 1)), r.source()), l, i);
+    readLayer(TomlKeys(*lt, r.child("layer." + std::to_string(i + 1)), r.source()), l, i);
     t.layers.push_back(l);
   }
   r.finish();
 }
 
-void readResolution(TableReader r, ResolutionSpec& s) {
+void readResolution(TomlKeys r, ResolutionSpec& s) {
   s.particleSpacing = r.positive("particle_spacing", units::length, 0, true);
   s.cellSize = r.positive("cell_size", units::length, 0);
   r.finish();
 }
 
-void readRun(TableReader r, RunSpec& s) {
+void readRun(TomlKeys r, RunSpec& s) {
   s.mode = r.choice<ModelMode>("mode", {{"auto", ModelMode::automatic}, {"3d", ModelMode::threeD},
                                         {"axisymmetric", ModelMode::axisymmetric}},
                                ModelMode::automatic);
@@ -236,14 +134,14 @@ void readRun(TableReader r, RunSpec& s) {
   r.finish();
 }
 
-void readVerdict(TableReader r, VerdictOptions& v) {
+void readVerdict(TomlKeys r, VerdictOptions& v) {
   v.separationCells = r.positive("separation_cells", units::dimensionless, v.separationCells);
   v.debrisMassFraction = r.positive("debris_mass_fraction", units::dimensionless, v.debrisMassFraction);
   v.settledKineticFraction = r.positive("settled_kinetic_fraction", units::dimensionless, v.settledKineticFraction);
   r.finish();
 }
 
-void readSolver(TableReader r, SolverOptions& o) {
+void readSolver(TomlKeys r, SolverOptions& o) {
   o.shapeFunction = r.choice<ShapeFunctionKind>(
       "shape_function", {{"ugimp", ShapeFunctionKind::uGimp}, {"linear", ShapeFunctionKind::linear}}, o.shapeFunction);
   o.scheme = r.choice<UpdateSchemeKind>("scheme", {{"musl", UpdateSchemeKind::musl}, {"usl", UpdateSchemeKind::usl}},
@@ -334,7 +232,7 @@ ImpactScenario parseScenario(const std::string& text, const std::string& sourceN
   ImpactScenario sc;
   sc.path = sourceName;
   sc.settings = settings;
-  TableReader r(root, "", sourceName);
+  TomlKeys r(root, "", sourceName);
   sc.name = r.string("name", std::filesystem::path(sourceName).stem().string());
   sc.description = r.string("description", "");
   sc.source = r.string("source", "");
@@ -343,12 +241,12 @@ ImpactScenario parseScenario(const std::string& text, const std::string& sourceN
     if (!t && required) throw InputError(r.at(key), "the required table is missing", "[" + key + "]");
     return t;
   };
-  readProjectile(TableReader(*section("projectile", true), "projectile", sourceName), sc.projectile);
-  readTarget(TableReader(*section("target", true), "target", sourceName), sc.target);
-  readResolution(TableReader(*section("resolution", true), "resolution", sourceName), sc.resolution);
-  readRun(TableReader(*section("run", true), "run", sourceName), sc.run);
-  if (auto t = section("verdict", false)) readVerdict(TableReader(*t, "verdict", sourceName), sc.verdict);
-  if (auto t = section("solver", false)) readSolver(TableReader(*t, "solver", sourceName), sc.solver);
+  readProjectile(TomlKeys(*section("projectile", true), "projectile", sourceName), sc.projectile);
+  readTarget(TomlKeys(*section("target", true), "target", sourceName), sc.target);
+  readResolution(TomlKeys(*section("resolution", true), "resolution", sourceName), sc.resolution);
+  readRun(TomlKeys(*section("run", true), "run", sourceName), sc.run);
+  if (auto t = section("verdict", false)) readVerdict(TomlKeys(*t, "verdict", sourceName), sc.verdict);
+  if (auto t = section("solver", false)) readSolver(TomlKeys(*t, "solver", sourceName), sc.solver);
   r.finish();
 
   if (sc.run.mode == ModelMode::axisymmetric && sc.projectile.angle > 1e-9)
