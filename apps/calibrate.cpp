@@ -83,7 +83,7 @@ void registerCalibrateCommand(CLI::App& app) {
   auto* vblOpt = addQuantity(*cmd, "--v-bl", s->ballisticLimit, units::velocity, "analytical model: base v_bl");
   cmd->add_option("--set", s->settings, "solver model: scenario setting KEY=VALUE on the base (repeatable)")
       ->type_name("KEY=VALUE");
-  cmd->add_option("--cache", s->cache, "solver model: run cache (JSON; default DIR/runs.json), reused when present")
+  cmd->add_option("--cache", s->cache, "solver model: run cache (JSON lines; default DIR/runs.jsonl), reused when present")
       ->type_name("FILE");
   cmd->add_option("--jobs", s->jobs, "solver model: runs at once (default 1)")->type_name("N");
   cmd->add_option("--threads", s->threads, "solver model: threads per run (default 1)")->type_name("N");
@@ -130,7 +130,7 @@ void registerCalibrateCommand(CLI::App& app) {
     } else {
       cal::SolverModelOptions so;
       so.settings = s->settings;
-      so.cacheFile = s->cache.empty() ? (std::filesystem::path(s->report) / "runs.json").string() : s->cache;
+      so.cacheFile = s->cache.empty() ? (std::filesystem::path(s->report) / "runs.jsonl").string() : s->cache;
       so.jobs = static_cast<int>(positiveNumber(s->jobs, "--jobs", false));
       so.threads = static_cast<int>(positiveNumber(s->threads, "--threads", false));
       if (!s->json) so.log = [](const std::string& line) { std::cerr << "  run: " << line << "\n"; };

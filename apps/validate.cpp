@@ -15,11 +15,11 @@
 #include <set>
 #include <sstream>
 
-#include "blt/campaign/campaign.hpp"
 #include "blt/core/csv.hpp"
 #include "blt/core/error.hpp"
 #include "blt/core/svg_plot.hpp"
 #include "blt/sim/impact.hpp"
+#include "blt/sim/run_cache.hpp"
 #include "cli_support.hpp"
 #include "commands.hpp"
 
@@ -53,27 +53,17 @@ double relativeError(double ours, double reference) { return reference != 0 ? (o
 
 std::string dataFile(const std::string& name) { return std::string(BLT_DATA_DIR) + "/" + name; }
 
-// The runs of this report, remembered in OUT/runs.jsonl.
+// The runs of this report, remembered in OUT/runs.jsonl (blt/sim/run_cache.hpp).
 class RunLog {
  public:
-  RunLog(const std::string& path, int threads) : path_(path), threads_(threads) {
-    std::ifstream in(path);
-    std::string line;
-    while (std::getline(in, line)) {
-      // A line cut short by a kill is not JSON: skip it, the run is made again.
-      const json j = json::parse(line, nullptr, false);
-      if (j.is_object() && j.contains("key") && j.contains("summary")) runs_[j["key"]] = j["summary"];
-    }
-    reused_ = runs_.size();
-  }
+  RunLog(const std::string& path, int threads) : cache_(path), threads_(threads) {}
 
   // The summary of a run of `scenario` (a data/ path) with these settings: remembered, or run now.
   json run(const std::string& scenario, const std::vector<std::string>& settings, const std::string& label) {
     std::ifstream file(dataFile(scenario));
     const std::string text((std::istreambuf_iterator<char>(file)), std::istreambuf_iterator<char>());
-    std::string key = scenario + " " + campaign::scenarioHash(text, {});
-    for (const auto& s : settings) key += " --set " + s;
-    if (auto it = runs_.find(key); it != runs_.end()) return it->second;
+    const std::string key = RunCache::key(scenario, text, settings);
+    if (auto found = cache_.find(key)) return *found;
     const ImpactScenario sc = loadScenario(dataFile(scenario), settings);
     ImpactRunOptions ro;
     ro.threads = threads_;
@@ -82,23 +72,18 @@ class RunLog {
     const ImpactResult r = runImpact(sc, ro);
     std::fprintf(stderr, " %s, %.1f s\n", r.summary["perforated"].get<bool>() ? "perforated" : "not perforated",
                  r.wallSeconds);
-    runs_[key] = r.summary;
+    cache_.record(key, r.summary);
     ++made_;
-    std::ofstream out(path_, std::ios::app);
-    out << json{{"key", key}, {"summary", r.summary}}.dump() << "\n";
-    out.flush();
-    if (!out) throw InputError(InputLocation::file(path_), "cannot append the run to the log", "a writable folder");
     return r.summary;
   }
 
   std::size_t made() const { return made_; }
-  std::size_t reused() const { return reused_; }
+  std::size_t reused() const { return cache_.loaded(); }
 
  private:
-  std::string path_;
+  RunCache cache_;
   int threads_;
-  std::map<std::string, json> runs_;
-  std::size_t made_ = 0, reused_ = 0;
+  std::size_t made_ = 0;
 };
 
 // The SI value as a number in `unit`, for a key=value setting ("1.2" for 1.2e-3 m in mm).

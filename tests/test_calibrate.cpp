@@ -286,7 +286,7 @@ TEST_CASE("calibrate: solver runs are kept in the run cache and not made again")
   SolverModelOptions options;
   // Coarse: a fraction of a second a run.
   options.settings = {"resolution.particle_spacing=0.2mm", "resolution.cell_size=0.4mm"};
-  options.cacheFile = dir + "/runs.json";
+  options.cacheFile = dir + "/runs.jsonl";
   const MeasuredData data = parse("case,diameter_mm,velocity_km_s,perforated,layer,hole_h_mm\n05,1.2,4.03,Y,,\n05,1.2,4.03,,outer,1.8\n");
   Prediction first;
   {

@@ -7,7 +7,7 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
-#include "blt/campaign/campaign.hpp"
+#include "blt/sim/run_cache.hpp"
 #include "run_blt.hpp"
 
 namespace {
@@ -16,7 +16,7 @@ namespace {
 std::string runKey(const std::string& scenario, const std::string& settings) {
   std::ifstream in(std::string(BLT_DATA_DIR) + "/" + scenario);
   const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  return scenario + " " + blt::campaign::scenarioHash(text, {}) + " " + settings;
+  return scenario + " " + blt::sim::scenarioHash(text, {}) + " " + settings;
 }
 
 // A run summary with the outer-layer and plate holes given (the two layers Table 5 names).

@@ -36,9 +36,9 @@ std::string fileContents(const std::string& path) {
 SolverModel::SolverModel(const std::string& scenarioPath, SolverModelOptions options)
     : path_(scenarioPath), options_(std::move(options)) {
   base_ = sim::loadScenario(path_, options_.settings);
-  // The contents are part of the cache key: an edited scenario must not reuse old runs.
-  fileKey_ = std::filesystem::absolute(path_).lexically_normal().string() + "#" +
-             std::to_string(std::hash<std::string>{}(fileContents(path_)));
+  // The text is part of the cache key: an edited scenario must not reuse old runs.
+  label_ = std::filesystem::absolute(path_).lexically_normal().string();
+  text_ = fileContents(path_);
   const std::size_t layers = base_.target.layers.size();
   constexpr double mm = 1e-3, deg = std::numbers::pi / 180;
   if (layers >= 3)
@@ -65,14 +65,7 @@ SolverModel::SolverModel(const std::string& scenarioPath, SolverModelOptions opt
                                  : (std::filesystem::path(options_.cacheFile).parent_path() / "cards").string();
   effects_.push_back({"obliquity", "every shot is delta degrees more oblique than recorded (3D runs)",
                       {"delta", "deg", "angle_error_rad", 0.0, 15 * deg, 0.0}});
-  if (!options_.cacheFile.empty() && std::filesystem::exists(options_.cacheFile)) {
-    try {
-      cache_ = nlohmann::json::parse(fileContents(options_.cacheFile));
-    } catch (const nlohmann::json::exception& e) {
-      throw InputError(InputLocation::file(options_.cacheFile), std::string("the run cache is not JSON: ") + e.what(),
-                       "a cache written by blt calibrate, or a new path");
-    }
-  }
+  cache_ = std::make_unique<sim::RunCache>(options_.cacheFile);
 }
 
 std::string SolverModel::describe() const {
@@ -163,12 +156,8 @@ std::string SolverModel::strengthCard(std::size_t k, double factor) const {
 }
 
 nlohmann::json SolverModel::runOrRecall(const std::vector<std::string>& settings) {
-  std::string key = fileKey_;
-  for (const auto& kv : settings) key += "\n" + kv;
-  {
-    std::lock_guard lock(mutex_);
-    if (cache_.contains(key)) return cache_[key];
-  }
+  const std::string key = sim::RunCache::key(label_, text_, settings);
+  if (auto found = cache_->find(key)) return *found;
   const sim::ImpactScenario scenario = sim::loadScenario(path_, settings);
   sim::ImpactRunOptions runOptions;
   runOptions.threads = options_.threads;
@@ -179,28 +168,15 @@ nlohmann::json SolverModel::runOrRecall(const std::vector<std::string>& settings
                          {"hole_size_mm", r.summary["hole_size_mm"]},
                          {"status", r.summary["status"]},
                          {"wall_time_s", r.summary["wall_time_s"]}};
+  cache_->record(key, kept);
   std::lock_guard lock(mutex_);
-  cache_[key] = kept;
   ++runsMade_;
-  saveCache();
   if (options_.log) {
     std::string line = kept["perforated"].get<bool>() ? "perforated" : "stopped";
     for (const auto& kv : settings) line += " " + kv;
     options_.log(line);
   }
   return kept;
-}
-
-void SolverModel::saveCache() {
-  if (options_.cacheFile.empty()) return;
-  // Written beside and renamed: an interrupted calibration leaves the previous cache whole.
-  const std::string tmp = options_.cacheFile + ".tmp";
-  {
-    std::ofstream out(tmp);
-    if (!out) throw InputError(InputLocation::file(options_.cacheFile), "cannot write the run cache", "a writable path");
-    out << cache_.dump() << "\n";
-  }
-  std::filesystem::rename(tmp, options_.cacheFile);
 }
 
 std::vector<Prediction> SolverModel::predict(const MeasuredData& data, const std::vector<std::size_t>& cases,

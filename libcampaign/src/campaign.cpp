@@ -115,32 +115,6 @@ std::string describePoint(const Campaign& c, const CampaignPoint& p) {
   return fixed + ", " + units::format(p.angle, "deg", 4);
 }
 
-std::string scenarioHash(const std::string& scenarioText, const std::vector<std::string>& settings) {
-  std::uint64_t h = 0xcbf29ce484222325ull;
-  const auto feed = [&h](std::string_view text) {
-    for (unsigned char ch : text) {
-      h ^= ch;
-      h *= 0x100000001b3ull;
-    }
-  };
-  // Lengths first, so that no two different lists of texts feed the same bytes.
-  const auto feedLength = [&feed](std::size_t n) {
-    const std::string digits = std::to_string(n);
-    feed(digits);
-    feed("\n");
-  };
-  feed("blt-campaign-run-v1\n");
-  feedLength(scenarioText.size());
-  feed(scenarioText);
-  for (const auto& s : settings) {
-    feed("\n");
-    feedLength(s.size());
-    feed(s);
-  }
-  char hex[17];
-  std::snprintf(hex, sizeof hex, "%016llx", static_cast<unsigned long long>(h));
-  return hex;
-}
 
 nlohmann::json Campaign::definition() const {
   nlohmann::json list = nlohmann::json::array();

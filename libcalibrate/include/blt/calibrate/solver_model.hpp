@@ -13,11 +13,12 @@
 //                     a non-normal impact is a 3D half model (minutes a run): name it in --effects
 // No margin: an outcome is right or wrong (a bisection per case would give ln(d/d_c), at ~6 runs a case).
 //
-// Runs are cached in a JSON file keyed by the scenario file's path and contents and the settings, so a second
-// calibration (or a resumed one) reruns nothing; this is the part a campaign database should take over.
+// Runs are kept in a run cache (blt/sim/run_cache.hpp) keyed by the scenario file's path, the hash of its text
+// and the settings, so a second calibration (or a resumed one) reruns nothing.
 
 #include <functional>
 #include <map>
+#include <memory>
 #include <mutex>
 #include <string>
 #include <vector>
@@ -25,13 +26,14 @@
 #include <nlohmann/json.hpp>
 
 #include "blt/calibrate/model.hpp"
+#include "blt/sim/run_cache.hpp"
 #include "blt/sim/scenario.hpp"
 
 namespace blt::calibrate {
 
 struct SolverModelOptions {
   std::vector<std::string> settings;  // key=value applied to the scenario before any case or effect
-  std::string cacheFile;              // empty: no cache kept between calls
+  std::string cacheFile;              // run cache (JSON lines); empty: no cache kept between calls
   std::string cardDirectory;          // derived material cards (strength:NAME); empty: beside the cache, or a temp dir
   int jobs = 1;                       // runs at once
   int threads = 1;                    // solver threads per run
@@ -59,14 +61,13 @@ class SolverModel : public Model {
   std::size_t layerIndex(const std::string& label) const;  // npos when not a layer
   std::string strengthCard(std::size_t layer, double factor) const;  // path of the derived card
   nlohmann::json runOrRecall(const std::vector<std::string>& settings);
-  void saveCache();
 
   std::string path_;
-  std::string fileKey_;
+  std::string label_, text_;  // the scenario's absolute path and its text, for the run cache's keys
   SolverModelOptions options_;
   sim::ImpactScenario base_;
   std::vector<Effect> effects_;
-  nlohmann::json cache_ = nlohmann::json::object();
+  std::unique_ptr<sim::RunCache> cache_;
   std::mutex mutex_;
   int runsMade_ = 0;
 };

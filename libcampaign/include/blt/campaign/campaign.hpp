@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "blt/sim/impact.hpp"
+#include "blt/sim/run_cache.hpp"
 #include "blt/sim/scenario.hpp"
 
 namespace blt::campaign {
@@ -76,7 +77,7 @@ Campaign parseCampaign(const std::string& text, const std::string& sourceName);
 // Throws InputError.
 sim::ImpactScenario runScenario(const Campaign& c, const std::vector<std::string>& settings);
 
-// FNV-1a (64 bit, hex) of the scenario text and the settings of a run: the identity of a run's inputs.
-std::string scenarioHash(const std::string& scenarioText, const std::vector<std::string>& settings);
+// The identity of a run's inputs (scenario text and settings), as every run store keys it.
+using sim::scenarioHash;
 
 }  // namespace blt::campaign

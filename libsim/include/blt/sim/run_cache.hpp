@@ -1,0 +1,47 @@
+#pragma once
+// Finished impact runs kept in a file so that a report or a calibration started again runs nothing twice: one
+// JSON line per run (its key and its summary), appended and flushed as the run ends. A line cut short by a kill
+// is skipped when the file is read, so at most the run in flight is lost. Several threads may share one cache.
+// (A bisection campaign keeps its runs in its SQLite database instead: blt/campaign/database.hpp.)
+//
+// A run's key names its scenario by the hash of the scenario's text, so an edited scenario file is run again;
+// material cards and the solver itself are not in the key.
+
+#include <cstddef>
+#include <map>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+namespace blt::sim {
+
+// FNV-1a (64 bit, hex) of a scenario's text and the settings of a run: the identity of a run's inputs.
+std::string scenarioHash(const std::string& scenarioText, const std::vector<std::string>& settings);
+
+class RunCache {
+ public:
+  // Reads the runs already in `path` (created on the first record); an empty path keeps runs in memory only.
+  explicit RunCache(std::string path = {});
+
+  // "LABEL HASH --set k=v ...": LABEL names the scenario for a reader (its path), HASH is of `scenarioText`.
+  static std::string key(const std::string& label, const std::string& scenarioText,
+                         const std::vector<std::string>& settings);
+
+  std::optional<nlohmann::json> find(const std::string& key) const;
+  // Appends the run; throws InputError naming the file when it cannot be written.
+  void record(const std::string& key, const nlohmann::json& summary);
+  std::size_t size() const;
+  std::size_t loaded() const { return loaded_; }  // runs read from the file at construction
+  const std::string& path() const { return path_; }
+
+ private:
+  std::string path_;
+  std::map<std::string, nlohmann::json> runs_;
+  std::size_t loaded_ = 0;
+  mutable std::mutex mutex_;
+};
+
+}  // namespace blt::sim
