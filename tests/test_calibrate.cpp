@@ -27,6 +27,7 @@
 #include "blt/calibrate/report.hpp"
 #include "blt/calibrate/solver_model.hpp"
 #include "blt/core/error.hpp"
+#include "gaussian.hpp"
 #include "run_blt.hpp"
 
 using namespace blt;
@@ -37,17 +38,6 @@ namespace {
 
 constexpr double baseLimit = 133.8;  // m/s, seed 003 Table 6 (T4)
 const analytic::ResidualVelocityParameters baseConstants{1.0, 2.0, baseLimit};
-
-// Standard normal deviates from mt19937 (its sequence is fixed by the standard) by Box-Muller.
-struct Scatter {
-  std::mt19937 engine;
-  explicit Scatter(uint32_t seed) : engine(seed) {}
-  double operator()() {
-    const double u1 = (static_cast<double>(engine()) + 0.5) / 4294967296.0;
-    const double u2 = (static_cast<double>(engine()) + 0.5) / 4294967296.0;
-    return std::sqrt(-2.0 * std::log(u1)) * std::cos(2.0 * std::numbers::pi * u2);
-  }
-};
 
 std::vector<double> shotVelocities() {
   std::vector<double> v;
@@ -60,7 +50,7 @@ double rechtIpson(double a, double limit, double v) { return v > limit ? a * std
 
 // A residual-velocity file from the relation with constants (a, v_bl) and scatter `sigma` on the perforating rows.
 std::string residualCsv(double a, double limit, double sigma, uint32_t seed) {
-  Scatter gauss(seed);
+  SeededGaussian gauss(seed);
   std::ostringstream csv;
   csv << "case,impact_velocity_m_s,residual_velocity_m_s\n";
   int k = 0;

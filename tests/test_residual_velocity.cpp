@@ -16,32 +16,18 @@
 
 #include "approx.hpp"
 #include "blt/analytic/residual_velocity.hpp"
+#include "gaussian.hpp"
 
 using namespace blt;
 using namespace blt::analytic;
 
 namespace {
 
-// Standard normal deviates from a fixed-seed mt19937 through the Box-Muller transform: mt19937's output is
-// fixed by the standard, std::normal_distribution's is not.
-class Gaussian {
- public:
-  explicit Gaussian(uint32_t seed) : engine_(seed) {}
-  double operator()() {
-    const double u1 = (static_cast<double>(engine_()) + 0.5) / 4294967296.0;
-    const double u2 = (static_cast<double>(engine_()) + 0.5) / 4294967296.0;
-    return std::sqrt(-2.0 * std::log(u1)) * std::cos(2.0 * std::numbers::pi * u2);
-  }
-
- private:
-  std::mt19937 engine_;
-};
-
 // Shots at the given velocities from known constants, the model written out here (not the library's), with
 // noise of standard deviation `noise` added to the perforating rows. A noisy v_r is kept non-negative.
 VelocityData generate(double a, double p, double vbl, const std::vector<double>& velocities, double noise = 0.0,
                       uint32_t seed = 1) {
-  Gaussian gauss(seed);
+  SeededGaussian gauss(seed);
   VelocityData data;
   data.source = "generated";
   for (double v : velocities) {
