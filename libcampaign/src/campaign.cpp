@@ -144,13 +144,7 @@ sim::ImpactScenario runScenario(const Campaign& c, const std::vector<std::string
 }
 
 Campaign parseCampaign(const std::string& text, const std::string& sourceName) {
-  toml::table root;
-  try {
-    root = toml::parse(text, sourceName);
-  } catch (const toml::parse_error& e) {
-    throw InputError(InputLocation::file(sourceName, static_cast<int>(e.source().begin.line)),
-                     "not valid TOML: " + std::string(e.description()));
-  }
+  toml::table root = parseTomlText(text, sourceName);
   const std::filesystem::path dir = std::filesystem::path(sourceName).parent_path();
   Campaign c;
   c.path = sourceName;

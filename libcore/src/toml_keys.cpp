@@ -2,6 +2,15 @@
 
 namespace blt {
 
+toml::table parseTomlText(const std::string& text, const std::string& sourceName) {
+  try {
+    return toml::parse(text, sourceName);
+  } catch (const toml::parse_error& e) {
+    throw InputError(InputLocation::file(sourceName, static_cast<int>(e.source().begin.line)),
+                     "not valid TOML: " + std::string(e.description()));
+  }
+}
+
 InputLocation TomlKeys::at(const std::string& key) const {
   const toml::node* n = table_.get(key);
   if (n && n->source().begin.line == 0) return InputLocation{"--set", std::nullopt, child(key)};

@@ -220,13 +220,7 @@ void applySetting(toml::table& root, const std::string& setting) {
 
 ImpactScenario parseScenario(const std::string& text, const std::string& sourceName,
                              const std::vector<std::string>& settings) {
-  toml::table root;
-  try {
-    root = toml::parse(text, sourceName);
-  } catch (const toml::parse_error& e) {
-    throw InputError(InputLocation::file(sourceName, static_cast<int>(e.source().begin.line)),
-                     "not valid TOML: " + std::string(e.description()));
-  }
+  toml::table root = parseTomlText(text, sourceName);
   for (const auto& s : settings) applySetting(root, s);
 
   ImpactScenario sc;

@@ -16,6 +16,9 @@
 
 namespace blt {
 
+// Parses TOML text; a syntax error is an InputError naming `sourceName` and the line.
+toml::table parseTomlText(const std::string& text, const std::string& sourceName);
+
 class TomlKeys {
  public:
   // `path`: the table's dotted name in the file ("" for the root), `source`: the file (or its stand-in name).
