@@ -341,6 +341,9 @@ TEST_CASE("campaign: several threads and processes writing one database do not c
         o.jobs = 2;
         o.simulator = fake.simulator();
         code = runCampaign(c, db, o).interrupted ? 3 : 0;
+      } catch (const std::exception& e) {
+        std::fprintf(stderr, "writer process %d: %s\n", k, e.what());
+        code = 2;
       } catch (...) {
         code = 2;
       }

@@ -260,7 +260,13 @@ RunDatabase::RunDatabase(const std::string& path) : path_(path) {
   }
   try {
     sqlite3_busy_timeout(db_, kBusyTimeoutMs);
-    if (needsSchema(db_, path_)) {
+    const bool schemaMissing = [&] {
+      // user_version, application_id and the table count from one snapshot: read one by one, a writer
+      // creating the schema between them makes a new database look like a foreign one.
+      sql::ReadTransaction snapshot(db_, path_);
+      return needsSchema(db_, path_);
+    }();
+    if (schemaMissing) {
       sql::WriteTransaction tx(db_, path_);
       // Another process may have created it while this one waited for the lock.
       if (needsSchema(db_, path_)) {

@@ -102,4 +102,17 @@ class WriteTransaction {
   bool done_ = false;
 };
 
+// BEGIN (deferred): the reads inside see one snapshot of the file, so values read one after another cannot
+// straddle another connection's commit. Ends with the object; it writes nothing.
+class ReadTransaction {
+ public:
+  ReadTransaction(sqlite3* db, const std::string& file) : db_(db) { exec(db_, file, "BEGIN", "starting a read"); }
+  ~ReadTransaction() { sqlite3_exec(db_, "COMMIT", nullptr, nullptr, nullptr); }
+  ReadTransaction(const ReadTransaction&) = delete;
+  ReadTransaction& operator=(const ReadTransaction&) = delete;
+
+ private:
+  sqlite3* db_;
+};
+
 }  // namespace blt::campaign::sql
