@@ -59,6 +59,11 @@ RunHooks<D> progressHooks(bool quiet) {
   return hooks;
 }
 
+// A library id, or a path to a card of the same format.
+Material materialByIdOrPath(const std::string& name) {
+  return name.find(".toml") != std::string::npos ? loadMaterial(name) : MaterialLibrary::load().get(name);
+}
+
 struct TaylorOptions {
   double velocity = 190.0, endTime = 80e-6, length = 25.4e-3, diameter = 7.62e-3;
   std::string material = "cu_ofhc";
@@ -102,9 +107,7 @@ void exampleTaylor(const TaylorOptions& o) {
     throw InputError(InputLocation::flag("--particles-per-diameter"), "too coarse", "at least 4");
   if (!(o.length > 0)) throw InputError(InputLocation::flag("--length"), "the bar length must be positive", "e.g. 25.4 mm");
   if (!(o.diameter > 0)) throw InputError(InputLocation::flag("--diameter"), "the bar diameter must be positive", "e.g. 7.62 mm");
-  // A library id, or a path to a card of the same format.
-  const Material copper = o.material.find(".toml") != std::string::npos ? loadMaterial(o.material)
-                                                                          : MaterialLibrary::load().get(o.material);
+  const Material copper = materialByIdOrPath(o.material);
   TaylorBarCase c;
   c.velocity = o.velocity;
   c.length = o.length;
@@ -215,11 +218,13 @@ void benchSim(const BenchOptions& o) {
 struct BenchTaylorOptions {
   int threads = 0, particlesPerDiameter = 20;
   bool threeD = false, json = false;
+  std::string material = "cu_ofhc";
 };
 
 void benchTaylor(const BenchTaylorOptions& o) {
   setThreads(o.threads);
-  const Material copper = MaterialLibrary::load().get("cu_ofhc");
+  const Material copper = materialByIdOrPath(o.material);
+  if (!o.json) std::printf("%s (%s), %s\n", copper.name.c_str(), o.material.c_str(), o.threeD ? "3D" : "axisymmetric");
   nlohmann::json rows = nlohmann::json::array();
   for (const auto& m : kTaylorTests) {
     TaylorBarCase c;
@@ -255,7 +260,8 @@ void benchTaylor(const BenchTaylorOptions& o) {
                   m.footprint * 1e3, 100 * eD, r.wallSeconds);
   }
   if (o.json)
-    printJson({{"geometry", o.threeD ? "3d" : "axisymmetric"},
+    printJson({{"material", o.material},
+               {"geometry", o.threeD ? "3d" : "axisymmetric"},
                {"particles_per_diameter", o.particlesPerDiameter},
                {"source", "Zerilli and Armstrong, J. Appl. Phys. 61 (1987) 1816"},
                {"targets", "length within 3 %, footprint within 5 % (issue 4)"},
@@ -308,6 +314,9 @@ void registerBenchCommand(CLI::App& app) {
       "taylor", "Taylor bar at 130, 146 and 190 m/s against Zerilli and Armstrong 1987 (final length, footprint)");
   taylor->add_option("--particles-per-diameter", tb->particlesPerDiameter, "Resolution (default 20)");
   taylor->add_flag("--3d", tb->threeD, "Full 3D model instead of axisymmetric");
+  taylor->add_option("--material", tb->material,
+                     "Copper card: a library id or a .toml path (default cu_ofhc, Johnson-Cook 1983; cu_ofhc_za: "
+                     "Zerilli-Armstrong 1987)");
   taylor->add_option("--threads", tb->threads, "OpenMP threads (default: all cores)");
   addJsonFlag(*taylor, tb->json);
   taylor->callback([tb] { benchTaylor(*tb); });

@@ -30,16 +30,18 @@ TEST_CASE("material library: every card in data/materials loads") {
   const MaterialLibrary lib = MaterialLibrary::load(materialsDir());
   const std::vector<std::string> expected = {
       "al_2024",   "al_2a12", "al_2a12_seed001", "al_5083_h116", "al_5a06",    "al_5a06_seed001",
-      "al_7075_t651", "al_zl102", "cu_ofhc",   "liner",       "mli_layer",    "outer_fabric", "q235",
+      "al_7075_t651", "al_zl102", "cu_ofhc",   "cu_ofhc_za", "liner",       "mli_layer",    "outer_fabric", "q235",
       "sic_b",     "steel_1006", "steel_38crsi", "steel_4340",   "water",      "weldox_460e"};
   CHECK(lib.ids() == expected);
   for (const auto& id : lib.ids()) {
     const Material& m = lib.get(id);
     INFO(id);
-    // Every card cites a seed table, except cu_ofhc: the Taylor bar verification material of the solver
-    // (issue 4), which cites Johnson and Cook 1983 and Marsh 1980.
+    // Every card cites a seed table, except the two Taylor bar verification coppers of the solver (issue 4),
+    // which cite Johnson and Cook 1983, Zerilli and Armstrong 1987 and Marsh 1980.
     if (id == "cu_ofhc")
       CHECK(m.source.find("Johnson and Cook 1983") != std::string::npos);
+    else if (id == "cu_ofhc_za")
+      CHECK(m.source.find("Zerilli and Armstrong 1987") != std::string::npos);
     else
       CHECK(m.source.rfind("seed 00", 0) == 0);
     CHECK(m.density > 0);
@@ -245,6 +247,6 @@ TEST_CASE("material library: the added models are checked like the others") {
                        doctest::Contains("field 'eos.k1': the number"), InputError);
   CHECK_THROWS_WITH_AS(
       parseMaterial(head + "[strength]\nmodel = \"jc\"\n", "m.toml", "m"),
-      doctest::Contains("(allowed: elastic, bilinear, johnson-cook, modified-johnson-cook, johnson-holmquist-1, fluid)"),
+      doctest::Contains("(allowed: elastic, bilinear, johnson-cook, modified-johnson-cook, zerilli-armstrong-fcc, johnson-holmquist-1, fluid)"),
       InputError);
 }

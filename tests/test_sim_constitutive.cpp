@@ -141,6 +141,25 @@ TEST_CASE("JohnsonCookStrength: 2A12 card against the formula; melt and low rate
   CHECK(q.johnsonCook->yieldStress(0.05, 10.0, 500.0) == relApprox(qHand, 1e-12));
 }
 
+TEST_CASE("ZerilliArmstrongFccStrength: cu_ofhc_za card against the formula; low rate; room temperature") {
+  const SolidMaterial m = makeSolidMaterial(MaterialLibrary::load().get("cu_ofhc_za"));
+  const auto* za = dynamic_cast<const ZerilliArmstrongFccStrength*>(m.strength.get());
+  REQUIRE(za != nullptr);
+  // Zerilli and Armstrong 1987, fcc form, their OFHC copper: C0 = 65 MPa, C2 = 890 MPa, C3 = 0.0028 1/K,
+  // C4 = 0.000115 1/K, rate in 1/s. sigma = C0 + C2 ep^0.5 exp(-C3 T + C4 T ln rate).
+  const double C0 = 65e6, C2 = 890e6, C3 = 0.0028, C4 = 0.000115;
+  const double ep = 0.25, rate = 1000, T = 400;
+  const double factor = std::exp(-C3 * T + C4 * T * std::log(rate));
+  CHECK(za->yieldStress(ep, rate, T) == relApprox(C0 + C2 * std::sqrt(ep) * factor, 1e-12));
+  CHECK(za->hardening(ep, rate, T) == relApprox(0.5 * C2 / std::sqrt(ep) * factor, 1e-12));
+  // Below the 1 1/s reference rate the ln term is 0 (the solver's clamp): the elastic trial at rate 0 is finite.
+  CHECK(za->yieldStress(ep, 0.0, T) == relApprox(C0 + C2 * std::sqrt(ep) * std::exp(-C3 * T), 1e-12));
+  // No plastic strain: the athermal C0 alone, whatever the rate and temperature.
+  CHECK(za->yieldStress(0.0, 1e4, 800.0) == relApprox(C0, 1e-12));
+  // The card's room temperature is where particles start.
+  CHECK(m.roomTemperature == relApprox(294.0, 1e-12));
+}
+
 TEST_CASE("SolidMaterial::update: one elastic step of uniaxial strain") {
   const SolidMaterial m = fromCard(card("model = \"elastic\""), "elastic_test");
   CHECK(m.shearModulus == relApprox(kG, 1e-12));
@@ -358,7 +377,7 @@ TEST_CASE("makeSolidMaterial on every card of the library") {
     }
   }
   for (const char* id : {"al_2a12", "al_5a06", "outer_fabric", "mli_layer", "liner", "weldox_460e", "q235",
-                         "cu_ofhc", "steel_38crsi", "al_2024", "al_7075_t651"}) {
+                         "cu_ofhc", "cu_ofhc_za", "steel_38crsi", "al_2024", "al_7075_t651"}) {
     INFO(id);
     CHECK(built.count(id) == 1);
   }

@@ -52,6 +52,14 @@ const std::vector<ModelSpec>& schema() {
       // Borvik's modification (LS-DYNA material 107, seed 003 Eq. 18): rate term (1 + rate/reference)^C instead of
       // 1 + C ln(rate/reference); kept apart from johnson-cook because C means something else in it.
       {"strength", "modified-johnson-cook", johnsonCook},
+      // Zerilli-Armstrong for fcc metals: C0 + C2 sqrt(ep) exp(-C3 T + C4 T ln(rate/reference)), T absolute.
+      {"strength", "zerilli-armstrong-fcc",
+       {{"C0", units::pressure, "MPa"},
+        {"C2", units::pressure, "MPa"},
+        {"C3", Dimension{0, 0, 0, -1, 0}, "1/K"},
+        {"C4", Dimension{0, 0, 0, -1, 0}, "1/K"},
+        {"reference_strain_rate", units::rate, "1/s"},
+        {"room_temperature", units::temperature, "K"}}},
       // Johnson-Holmquist 1 for ceramics (seed 002 sec. 3.7): intact strength piecewise linear in pressure through
       // (P1, S1), (P2, S2), zero at -T (hydrostatic tensile strength); failed strength = slope * pressure capped at
       // max_failed_strength.

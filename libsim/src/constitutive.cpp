@@ -89,6 +89,20 @@ double JohnsonCookStrength::hardening(double ep, double rate, double temperature
   return p_.B * p_.n * std::pow(e, p_.n - 1.0) * rateFactor(rate) * thermalFactor(temperature);
 }
 
+double ZerilliArmstrongFccStrength::thermalRateFactor(double rate, double temperature) const {
+  const double logRate = std::log(std::max(rate / p_.referenceRate, 1.0));
+  return std::exp(-p_.C3 * temperature + p_.C4 * temperature * logRate);
+}
+
+double ZerilliArmstrongFccStrength::yieldStress(double ep, double rate, double temperature) const {
+  return p_.C0 + p_.C2 * std::sqrt(std::max(ep, 0.0)) * thermalRateFactor(rate, temperature);
+}
+
+double ZerilliArmstrongFccStrength::hardening(double ep, double rate, double temperature) const {
+  // Infinite at ep = 0 like Johnson-Cook's for n < 1; capped for the same reason.
+  return 0.5 * p_.C2 / std::sqrt(std::max(ep, 1e-6)) * thermalRateFactor(rate, temperature);
+}
+
 // ---- failure ----
 
 bool MaxPrincipalStressFailure::check(const FailureInput& in, double&) const {
@@ -257,6 +271,15 @@ Registry& registry() {
         return std::make_shared<JohnsonCookStrength>(p);
       };
     };
+    reg.strength["zerilli-armstrong-fcc"] = [](const Material& m) -> std::shared_ptr<const StrengthModel> {
+      ZerilliArmstrongFccStrength::Parameters p;
+      p.C0 = m.param("strength", "C0");
+      p.C2 = m.param("strength", "C2");
+      p.C3 = m.param("strength", "C3");
+      p.C4 = m.param("strength", "C4");
+      if (m.has("strength", "reference_strain_rate")) p.referenceRate = m.param("strength", "reference_strain_rate");
+      return std::make_shared<ZerilliArmstrongFccStrength>(p);
+    };
     reg.strength["johnson-cook"] = jc(false);
     reg.strength["modified-johnson-cook"] = jc(true);
     reg.failure["max-principal-stress"] = [](const Material& m) -> std::shared_ptr<const FailureModel> {
@@ -365,7 +388,7 @@ SolidMaterial makeSolidMaterial(const Material& card) {
   if (m.shearModulus <= 0 && !card.has("elastic", "shear_modulus"))
     throw InputError(cardLocation(card, "elastic", "shear_modulus"), "no shear modulus",
                      "shear_modulus, or youngs_modulus with poisson_ratio");
-  if (m.johnsonCook && card.has("strength", "room_temperature"))
+  if (card.has("strength", "room_temperature"))
     m.roomTemperature = card.param("strength", "room_temperature");
 
   if (card.has("failure")) {

@@ -124,6 +124,25 @@ class JohnsonCookStrength final : public StrengthModel {
   Parameters p_;
 };
 
+// Zerilli-Armstrong for fcc metals (Zerilli and Armstrong, J. Appl. Phys. 61 (1987) 1816, Eq. 12 without the
+// Hall-Petch split): C0 + C2 sqrt(ep) exp(-C3 T + C4 T ln(rate/rate0)), T absolute. Rates below rate0 count as
+// rate0, so the elastic trial (rate 0) sees the quasi-static stress instead of ln 0.
+class ZerilliArmstrongFccStrength final : public StrengthModel {
+ public:
+  struct Parameters {
+    double C0 = 0, C2 = 0;  // Pa
+    double C3 = 0, C4 = 0;  // 1/K
+    double referenceRate = 1.0;  // 1/s
+  };
+  explicit ZerilliArmstrongFccStrength(const Parameters& p) : p_(p) {}
+  double yieldStress(double ep, double rate, double temperature) const override;
+  double hardening(double ep, double rate, double temperature) const override;
+
+ private:
+  double thermalRateFactor(double rate, double temperature) const;
+  Parameters p_;
+};
+
 // Failure: `accumulate` updates the damage, `check` says whether the point has failed now.
 struct FailureInput {
   const Mat3& stress;
