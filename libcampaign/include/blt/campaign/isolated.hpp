@@ -1,0 +1,30 @@
+#pragma once
+// Runs each simulation of a campaign in a process of its own (`blt sim run SCENARIO --set ... --json`), so that
+// a run that crashes (a segmentation fault, an abort, the kernel's out-of-memory kill) is recorded as a failed run
+// with its signal and the end of its error output, and the campaign goes on. In process, the same crash would
+// end the campaign (what was recorded stays, and a restart resumes, but every run in flight is lost).
+//
+// The child reads the scenario file again (ImpactScenario::path) with the run's settings; the campaign has
+// checked at its start that the file is the one it was defined with (RunDatabase::ensureCampaign). The child
+// is killed when the thread that started it dies, so a killed campaign leaves no runs behind it.
+
+#include <cstddef>
+#include <string>
+
+#include "blt/campaign/runner.hpp"
+
+namespace blt::campaign {
+
+struct IsolatedRunOptions {
+  std::string executable;                // the blt program (its `sim run` subcommand); required
+  int threads = 1;                       // OpenMP threads of each run (0: all cores)
+  std::size_t errorTailBytes = 600;      // how much of the child's error output a failed run's reason keeps
+};
+
+// Throws InputError when the executable is not there.
+Simulator isolatedSimulator(const IsolatedRunOptions& options);
+
+// The program this process runs (/proc/self/exe), for isolatedSimulator from the blt CLI itself.
+std::string currentExecutable();
+
+}  // namespace blt::campaign

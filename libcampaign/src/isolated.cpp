@@ -1,0 +1,142 @@
+#include "blt/campaign/isolated.hpp"
+
+#include <signal.h>
+#include <sys/prctl.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+#include <vector>
+
+#include "blt/core/error.hpp"
+
+namespace blt::campaign {
+
+namespace {
+
+// A file in the temporary directory for one of the child's output streams; removed with the object.
+class CaptureFile {
+ public:
+  explicit CaptureFile(const char* stream) {
+    std::string pattern = (std::filesystem::temp_directory_path() / ("blt-run-" + std::string(stream) + "-XXXXXX")).string();
+    fd_ = mkstemp(pattern.data());
+    if (fd_ < 0) throw std::runtime_error("cannot make a file for the run's " + std::string(stream) + ": " + std::strerror(errno));
+    path_ = pattern;
+  }
+  ~CaptureFile() {
+    close(fd_);
+    std::error_code ignored;
+    std::filesystem::remove(path_, ignored);
+  }
+  CaptureFile(const CaptureFile&) = delete;
+  CaptureFile& operator=(const CaptureFile&) = delete;
+  int fd() const { return fd_; }
+  std::string text() const {
+    std::ifstream in(path_, std::ios::binary);
+    std::ostringstream s;
+    s << in.rdbuf();
+    return s.str();
+  }
+
+ private:
+  int fd_ = -1;
+  std::string path_;
+};
+
+std::string tail(const std::string& text, std::size_t bytes) {
+  std::string t = text.size() > bytes ? "..." + text.substr(text.size() - bytes) : text;
+  while (!t.empty() && (t.back() == '\n' || t.back() == ' ')) t.pop_back();
+  for (char& c : t)
+    if (c == '\n') c = ' ';
+  return t;
+}
+
+SimulationOutcome runIsolated(const IsolatedRunOptions& o, const sim::ImpactScenario& scenario) {
+  if (scenario.path.empty())
+    throw std::runtime_error("a run in its own process needs the scenario's file, and this scenario has none");
+  std::vector<std::string> args = {o.executable, "sim", "run", scenario.path};
+  for (const std::string& s : scenario.settings) {
+    args.push_back("--set");
+    args.push_back(s);
+  }
+  for (const char* a : {"--json", "--quiet", "--threads"}) args.emplace_back(a);
+  args.push_back(std::to_string(o.threads));
+  std::vector<char*> argv;
+  for (std::string& a : args) argv.push_back(a.data());
+  argv.push_back(nullptr);
+
+  const CaptureFile out("stdout"), err("stderr");
+  const pid_t parent = getpid();
+  const pid_t pid = fork();
+  if (pid < 0) throw std::runtime_error(std::string("cannot start a process for the run: ") + std::strerror(errno));
+  if (pid == 0) {
+    // Only async-signal-safe calls between fork and exec: this process has other threads.
+    prctl(PR_SET_PDEATHSIG, SIGKILL);
+    if (getppid() != parent) _exit(126);  // the campaign died before prctl took hold
+    dup2(out.fd(), STDOUT_FILENO);
+    dup2(err.fd(), STDERR_FILENO);
+    close_range(3, ~0U, 0);  // the run database and other runs' files stay with the campaign
+    execv(argv[0], argv.data());
+    _exit(127);
+  }
+  int status = 0;
+  while (waitpid(pid, &status, 0) < 0)
+    if (errno != EINTR) throw std::runtime_error(std::string("lost the run's process: ") + std::strerror(errno));
+
+  SimulationOutcome r;
+  const std::string errors = tail(err.text(), o.errorTailBytes);
+  if (WIFSIGNALED(status)) {
+    const int sig = WTERMSIG(status);
+    r.failed = true;
+    r.reason = "the run crashed: signal " + std::to_string(sig) + " (" + strsignal(sig) + ")" +
+               (sig == SIGKILL ? ", perhaps killed for memory" : "") + (errors.empty() ? "" : "; it wrote: " + errors);
+    return r;
+  }
+  const int code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  if (code != 0) {
+    r.failed = true;
+    r.reason = (code == 127 ? "cannot run " + o.executable : "blt sim run exited with status " + std::to_string(code)) +
+               (errors.empty() ? "" : ": " + errors);
+    return r;
+  }
+  nlohmann::json summary;
+  try {
+    summary = nlohmann::json::parse(out.text());
+  } catch (const std::exception& e) {
+    r.failed = true;
+    r.reason = std::string("the run's JSON could not be read: ") + e.what();
+    return r;
+  }
+  r.failed = summary.value("status", "") == "unstable";
+  if (r.failed) r.reason = "the run went unstable: " + summary.value("message", "");
+  r.perforated = summary.value("perforated", false);
+  r.settled = summary.value("settled", false);
+  r.residualVelocity = summary.value("residual_velocity_m_s", 0.0);
+  r.wallSeconds = summary.value("wall_time_s", 0.0);
+  r.measurements = std::move(summary);
+  return r;
+}
+
+}  // namespace
+
+Simulator isolatedSimulator(const IsolatedRunOptions& options) {
+  if (options.executable.empty() || access(options.executable.c_str(), X_OK) != 0)
+    throw InputError(InputLocation::file(options.executable.empty() ? "(none)" : options.executable),
+                     "is not an executable blt program, needed to run each simulation in its own process",
+                     "the path of the blt program");
+  return [options](const sim::ImpactScenario& scenario) { return runIsolated(options, scenario); };
+}
+
+std::string currentExecutable() {
+  std::error_code ec;
+  const auto p = std::filesystem::read_symlink("/proc/self/exe", ec);
+  return ec ? std::string() : p.string();
+}
+
+}  // namespace blt::campaign
