@@ -65,7 +65,7 @@ void registerCalibrateCommand(CLI::App& app) {
     std::string aText = "1", pText = "2", folds = "0", grid = "0", refine = "-1", minImprovement = "0.1", minT = "2";
     std::string jobs = "1", threads = "1";
     double ballisticLimit = 0;
-    bool json = false;
+    bool json = false, outcomeMargin = false;
   };
   auto s = std::make_shared<State>();
   cmd->add_option("--measured", s->measured, "measured data (CSV, columns above)")->required()->type_name("DATA");
@@ -85,6 +85,9 @@ void registerCalibrateCommand(CLI::App& app) {
       ->type_name("KEY=VALUE");
   cmd->add_option("--cache", s->cache, "solver model: run cache (JSON lines; default DIR/runs.jsonl), reused when present")
       ->type_name("FILE");
+  cmd->add_flag("--outcome-margin", s->outcomeMargin,
+                "solver model: an outcome the model gets wrong counts by how far: ln(d/d_c), d_c bisected on the "
+                "diameter to 3 % (about 5 runs a wrong case), instead of 1");
   cmd->add_option("--jobs", s->jobs, "solver model: runs at once (default 1)")->type_name("N");
   cmd->add_option("--threads", s->threads, "solver model: threads per run (default 1)")->type_name("N");
   cmd->add_option("--folds", s->folds, "cross-validation folds (default: leave-one-out up to 20 cases, else 10)")
@@ -133,6 +136,7 @@ void registerCalibrateCommand(CLI::App& app) {
       so.cacheFile = s->cache.empty() ? (std::filesystem::path(s->report) / "runs.jsonl").string() : s->cache;
       so.jobs = static_cast<int>(positiveNumber(s->jobs, "--jobs", false));
       so.threads = static_cast<int>(positiveNumber(s->threads, "--threads", false));
+      so.outcomeMargin = s->outcomeMargin;
       if (!s->json) so.log = [](const std::string& line) { std::cerr << "  run: " << line << "\n"; };
       std::filesystem::create_directories(std::filesystem::path(so.cacheFile).parent_path().empty()
                                               ? std::filesystem::path(".")

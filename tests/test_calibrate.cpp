@@ -297,6 +297,48 @@ TEST_CASE("calibrate: solver runs are kept in the run cache and not made again")
   fs::remove_all(dir);
 }
 
+TEST_CASE("calibrate: with outcome margins a wrong outcome counts ln(d/d_c), the model's d_c bracketed to 3 %") {
+  const std::string dir = tempDir("margin");
+  const std::string scenario = std::string(BLT_DATA_DIR) + "/scenarios/fabric_al_corrected.toml";
+  SolverModelOptions options;
+  options.settings = {"resolution.particle_spacing=0.2mm", "resolution.cell_size=0.4mm", "target.lateral_size=12mm",
+                      "run.max_time=8us"};
+  options.cacheFile = dir + "/runs.jsonl";
+  options.outcomeMargin = true;
+  // Two "measured" outcomes are the opposite of what the model gives: a large shot said stopped, a small one
+  // said through; a third is measured as the model gives it.
+  const MeasuredData data = parse("case,diameter_mm,velocity_km_s,perforated\nbig,2.0,7,N\nsmall,0.4,7,Y\nright,2.0,7,Y\n");
+  SolverModel model(scenario, options);
+  const auto p = model.predict(data, {0, 1, 2}, {});
+  REQUIRE(p[0].perforated);
+  REQUIRE_FALSE(p[1].perforated);
+  REQUIRE(p[0].margin);
+  REQUIRE(p[1].margin);
+  CHECK_FALSE(p[2].margin);  // right: its hinge residual is 0 whatever the margin
+  CHECK(*p[0].margin > 0);
+  CHECK(*p[1].margin < 0);
+  // The residuals are the margins, not 1.
+  CHECK(residualOf(data.observations[0], p[0]) == doctest::Approx(*p[0].margin));
+  CHECK(residualOf(data.observations[1], p[1]) == doctest::Approx(*p[1].margin));
+  CHECK(residualOf(data.observations[2], p[2]) == 0.0);
+  // The d_c each margin implies is bracketed by the solver itself: through just above it, stopped just below.
+  SolverModelOptions plain = options;
+  plain.outcomeMargin = false;
+  SolverModel check(scenario, plain);
+  for (std::size_t k : {std::size_t{0}, std::size_t{1}}) {
+    CAPTURE(k);
+    const double dc = data.cases[k].diameter * std::exp(-*p[k].margin);
+    const MeasuredData around = parse("case,diameter_mm,velocity_km_s,perforated\nabove," + std::to_string(dc * 1.016e3) +
+                                      "," + std::to_string(data.cases[k].velocity * 1e-3) + ",Y\nbelow," +
+                                      std::to_string(dc / 1.016 * 1e3) + "," +
+                                      std::to_string(data.cases[k].velocity * 1e-3) + ",N\n");
+    const auto q = check.predict(around, {0, 1}, {});
+    CHECK(q[0].perforated);
+    CHECK_FALSE(q[1].perforated);
+  }
+  fs::remove_all(dir);
+}
+
 TEST_CASE("calibrate: the command line names the effect in text and JSON and says what is wrong with its input") {
   const std::string dir = tempDir("cli");
   const std::string data = std::string(BLT_DATA_DIR) + "/calibrate/residual_velocity_plug.csv";

@@ -179,8 +179,39 @@ nlohmann::json SolverModel::runOrRecall(const std::vector<std::string>& settings
   return kept;
 }
 
+double SolverModel::margin(const MeasuredCase& c, const EffectSetting& setting, bool perforatedAtMeasured) {
+  // Geometric steps away from the measured diameter until the verdict turns, then bisection in ln d.
+  const auto perforates = [&](double d) {
+    MeasuredCase probe = c;
+    probe.diameter = d;
+    return runOrRecall(settingsFor(probe, setting))["perforated"].get<bool>();
+  };
+  double near = c.diameter, far = c.diameter;
+  const double step = perforatedAtMeasured ? 1.0 / 1.25 : 1.25;
+  bool turned = false;
+  for (int k = 0; k < options_.marginSteps && !turned; ++k) {
+    near = far;
+    far *= step;
+    turned = perforates(far) != perforatedAtMeasured;
+  }
+  // Not turned within the search: the margin is at least the distance searched.
+  if (!turned) return std::log(c.diameter / far);
+  double perforating = perforatedAtMeasured ? near : far, safe = perforatedAtMeasured ? far : near;
+  while (perforating / safe > 1.0 + options_.marginTolerance) {
+    const double mid = std::sqrt(perforating * safe);
+    (perforates(mid) ? perforating : safe) = mid;
+  }
+  return std::log(c.diameter / std::sqrt(perforating * safe));
+}
+
 std::vector<Prediction> SolverModel::predict(const MeasuredData& data, const std::vector<std::size_t>& cases,
                                              const EffectSetting& setting) {
+  // The measured outcome of each case, for the margin of the ones the model gets wrong.
+  std::map<std::size_t, bool> measuredOutcome;
+  if (options_.outcomeMargin)
+    for (const Observation& o : data.observations)
+      if (o.kind == ObservationKind::outcome) measuredOutcome[o.caseIndex] = o.value > 0.5;
+  std::vector<std::optional<double>> margins(cases.size());
   std::vector<nlohmann::json> runs(cases.size());
   std::atomic<std::size_t> next{0};
   std::exception_ptr failure;
@@ -188,7 +219,12 @@ std::vector<Prediction> SolverModel::predict(const MeasuredData& data, const std
   const auto worker = [&] {
     for (std::size_t k; (k = next++) < cases.size();) {
       try {
-        runs[k] = runOrRecall(settingsFor(data.cases.at(cases[k]), setting));
+        const MeasuredCase& c = data.cases.at(cases[k]);
+        runs[k] = runOrRecall(settingsFor(c, setting));
+        const auto measured = measuredOutcome.find(cases[k]);
+        const bool perforated = runs[k]["perforated"].get<bool>();
+        if (measured != measuredOutcome.end() && measured->second != perforated)
+          margins[k] = margin(c, setting, perforated);
       } catch (...) {
         std::lock_guard lock(failureMutex);
         if (!failure) failure = std::current_exception();
@@ -204,16 +240,17 @@ std::vector<Prediction> SolverModel::predict(const MeasuredData& data, const std
   if (failure) std::rethrow_exception(failure);
 
   std::vector<Prediction> out;
-  for (const nlohmann::json& r : runs) {
+  for (std::size_t k = 0; k < runs.size(); ++k) {
+    const nlohmann::json& r = runs[k];
     Prediction p;
     p.perforated = r["perforated"].get<bool>();
+    p.margin = margins[k];
     // A stopped shot has no residual velocity; the measured data write it as 0.
     p.residualVelocity = p.perforated ? r["residual_velocity_m_s"].get<double>() : 0.0;
     // Every label the data may use for a layer gets that layer's hole.
     for (const Observation& o : data.observations) {
       if (o.layer.empty()) continue;
-      const std::size_t k = layerIndex(o.layer);
-      const auto& h = r["hole_size_mm"].at(k);
+      const auto& h = r["hole_size_mm"].at(layerIndex(o.layer));
       p.holes.push_back({o.layer, {h.at(0).get<double>() * 1e-3, h.at(1).get<double>() * 1e-3}});
     }
     out.push_back(std::move(p));

@@ -11,7 +11,9 @@
 //                     directory and set as the layer's material, so libsim needs no key of its own
 //   obliquity         an angle error in [0, 15 deg] added to every case's angle; not in the default list, since
 //                     a non-normal impact is a 3D half model (minutes a run): name it in --effects
-// No margin: an outcome is right or wrong (a bisection per case would give ln(d/d_c), at ~6 runs a case).
+// Outcomes: by default right or wrong. With `outcomeMargin`, a case the model gets wrong is bisected on the
+// diameter (other inputs as measured) for the model's d_c, and its margin ln(d/d_c) says how far wrong it is
+// (about 4 to 6 runs a wrong case; a right case needs none, since the calibrator's outcome residual is then 0).
 //
 // Runs are kept in a run cache (blt/sim/run_cache.hpp) keyed by the scenario file's path, the hash of its text
 // and the settings, so a second calibration (or a resumed one) reruns nothing.
@@ -37,6 +39,9 @@ struct SolverModelOptions {
   std::string cardDirectory;          // derived material cards (strength:NAME); empty: beside the cache, or a temp dir
   int jobs = 1;                       // runs at once
   int threads = 1;                    // solver threads per run
+  bool outcomeMargin = false;         // bisect the wrongly predicted outcomes for ln(d/d_c)
+  double marginTolerance = 0.03;      // the bisection stops when d_hi / d_lo <= 1 + this
+  int marginSteps = 6;                // at most this many factors of 1.25 searched for the other side
   std::function<void(const std::string&)> log;  // told each run as it ends
 };
 
@@ -61,6 +66,8 @@ class SolverModel : public Model {
   std::size_t layerIndex(const std::string& label) const;  // npos when not a layer
   std::string strengthCard(std::size_t layer, double factor) const;  // path of the derived card
   nlohmann::json runOrRecall(const std::vector<std::string>& settings);
+  // ln(d/d_c) of the model for case c under `setting`, from the run at the measured diameter (`atMeasured`).
+  double margin(const MeasuredCase& c, const EffectSetting& setting, bool perforatedAtMeasured);
 
   std::string path_;
   std::string label_, text_;  // the scenario's absolute path and its text, for the run cache's keys
