@@ -1,15 +1,25 @@
 // blt campaign: bisection campaigns (many ballistic-limit points of one scenario) run concurrently and resumably
 // into an SQLite run database; their status, their runs as binary impact data, and the merging of task parts.
+// blt bench campaign: wall time and runs of a campaign run from scratch, with and without BLE-seeded brackets.
 #include <unistd.h>
 
+#include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <ctime>
 #include <filesystem>
+#include <functional>
 #include <iostream>
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
+#include <thread>
 
+#include "blt/ble/fit.hpp"
+#include "blt/ble/impact_data.hpp"
+#include "blt/ble/store.hpp"
+#include "blt/campaign/bench.hpp"
 #include "blt/campaign/campaign.hpp"
 #include "blt/campaign/database.hpp"
 #include "blt/campaign/mpi.hpp"
@@ -285,6 +295,220 @@ void mergeCommand(const MergeOptions& o) {
   if (o.json) printJson({{"db", o.db}, {"runs_added", added}});
 }
 
+
+// ---- blt bench campaign ------------------------------------------------------------------------------------------
+
+namespace fs = std::filesystem;
+
+// Issue 6: the theta = 0 campaign at the seed's resolution on 2 cores in under 15 minutes.
+constexpr double kBenchTargetSeconds = 15 * 60;
+
+struct BenchCampaignOptions {
+  std::string campaign = std::string(BLT_DATA_DIR) + "/campaigns/seed000_theta0.toml";
+  std::string seeded = std::string(BLT_DATA_DIR) + "/campaigns/seed000_theta0_seeded.toml";
+  std::string bleDb;
+  int jobs = 2, threads = 1;
+  bool quick = false, json = false, quiet = false, keep = false;
+};
+
+// A campaign file as given (relative to the working directory), else relative to the checkout, so that
+// data/campaigns/NAME.toml is found from anywhere.
+std::string benchCampaignPath(const std::string& given) {
+  if (fs::exists(given) || fs::path(given).is_absolute()) return given;
+  const fs::path inCheckout = fs::path(BLT_DATA_DIR).parent_path() / given;
+  return fs::exists(inCheckout) ? inCheckout.string() : given;
+}
+
+// The fit a seeded campaign names, when its store holds it; else made into `dir` as
+// data/campaigns/seed000_theta0_seeded.toml's header says (seed 000's Table 1 tests and Table 7, 2770 kg/m3), and
+// the seed pointed at it. Returns where the fit came from, one line.
+std::string benchSeedFit(BleSeed& seed, const fs::path& dir) {
+  std::string why;
+  if (seed.db.empty()) {
+    why = "no BLE store given";
+  } else if (!fs::exists(seed.db)) {
+    why = "no BLE store " + seed.db;
+  } else {
+    const ble::BleStore store(seed.db);
+    if (store.hasFit(seed.fit)) return "stored fit '" + seed.fit + "' in " + seed.db;
+    why = seed.db + " has no fit '" + seed.fit + "'";
+  }
+  const auto start = std::chrono::steady_clock::now();
+  ble::FitOptions options;
+  options.defaultProjectileDensity = 2770;  // 2A12, seed 000's projectiles
+  std::vector<ble::ImpactPoint> points;
+  std::string origin;
+  for (const char* name : {"seed000_table1_tests.csv", "seed000_table7_mpm.csv"}) {
+    const std::string file = std::string(BLT_DATA_DIR) + "/seed/" + name;
+    const auto read = ble::readImpactCsv(file);
+    points.insert(points.end(), read.begin(), read.end());
+    origin += (origin.empty() ? "" : "; ") + file;
+  }
+  ble::StoredFit stored;
+  stored.name = seed.fit;
+  stored.options = options;
+  stored.result = ble::fitChristiansen(points, options);
+  stored.points = points;
+  stored.dataOrigin = origin;
+  stored.dataHash = ble::hashPoints(points);
+  stored.toolVersion = BLT_VERSION;
+  const std::string path = (dir / "fits.db").string();
+  ble::BleStore(path).saveFit(stored, false);
+  seed.db = path;
+  char took[32];
+  std::snprintf(took, sizeof took, "%.2g s",
+                std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+  return why + "; made fit '" + seed.fit + "' from seed 000 Table 1 tests + Table 7 (" + std::to_string(points.size()) +
+         " points, 2770 kg/m3, " + ble::toString(stored.result.method) + ") into " + path + " in " + took;
+}
+
+nlohmann::json benchJson(const CampaignBenchmark& b, const Campaign& c, const std::string& brackets) {
+  nlohmann::json points = nlohmann::json::array();
+  for (const auto& p : b.pointRecords) points.push_back(pointJson(p, sim::toString(c.variable)));
+  return {{"campaign", b.campaign},
+          {"file", c.path},
+          {"brackets", brackets},
+          {"wall_time_s", b.wallSeconds},
+          {"wall_time_min", b.wallSeconds / 60},
+          {"simulated_wall_time_s", b.simulatedSeconds},
+          {"points", b.points},
+          {"points_resolved", b.resolved},
+          {"points_unresolved", b.unresolved},
+          {"runs", b.runs},
+          {"runs_failed", b.runsFailed},
+          {"runs_replayed", b.runsReplayed},
+          {"runs_per_point_mean", b.runsPerPointMean},
+          {"runs_per_point_max", b.runsPerPointMax},
+          {"target_wall_time_s", kBenchTargetSeconds},
+          {"target_met", b.wallSeconds < kBenchTargetSeconds && b.unresolved == 0 && !b.interrupted},
+          {"point_results", points}};
+}
+
+void printBench(const CampaignBenchmark& b, const Campaign& c, const std::string& brackets) {
+  std::printf("%s (%s), brackets: %s\n", b.campaign.c_str(), c.path.c_str(), brackets.c_str());
+  printPoints(b.pointRecords, sim::toString(c.variable));
+  std::printf("  wall time %.1f s (%.2f min), summed run time %.1f s\n", b.wallSeconds, b.wallSeconds / 60,
+              b.simulatedSeconds);
+  std::printf("  %d points: %d resolved, %d unresolved\n", b.points, b.resolved, b.unresolved);
+  std::printf("  %d runs (%d failed%s), runs per point %.2f mean, %d max\n", b.runs, b.runsFailed,
+              b.runsReplayed ? (", " + std::to_string(b.runsReplayed) + " repeated values replayed").c_str() : "",
+              b.runsPerPointMean, b.runsPerPointMax);
+  const bool met = b.wallSeconds < kBenchTargetSeconds && b.unresolved == 0;
+  std::printf("  target (whole campaign in under %.0f min): %s\n", kBenchTargetSeconds / 60,
+              met ? "met" : (b.unresolved ? "missed (points unresolved)" : "missed"));
+}
+
+void benchCampaign(const BenchCampaignOptions& o) {
+  if (o.jobs < 1)
+    throw InputError(InputLocation::flag("--jobs"), "'" + std::to_string(o.jobs) + "' points at once", "1, 2, ...");
+  if (o.threads < 0)
+    throw InputError(InputLocation::flag("--threads"), "thread count must not be negative", "1, 2, ... (0: all cores)");
+  const std::string quick = std::string(BLT_DATA_DIR) + "/campaigns/seed000_quick.toml";
+  const Campaign plain = loadCampaign(o.quick ? quick : benchCampaignPath(o.campaign));
+  Campaign seeded = loadCampaign(o.quick ? quick : benchCampaignPath(o.seeded));
+  if (!o.bleDb.empty()) {
+    if (!seeded.ble) seeded.ble = BleSeed{};
+    seeded.ble->db = o.bleDb;
+  }
+  std::string skipped;
+  bool addedSeed = false;
+  if (seeded.variable != sim::BisectVariable::diameter) {
+    skipped = "campaign " + seeded.path + " bisects on velocity; BLE seeding is for diameter campaigns only";
+  } else if (!seeded.ble || seeded.ble->fit.empty()) {
+    // A file without [ble] (seed000_quick.toml): seeded as seed000_theta0_seeded.toml is, fit seed000, +-10 %.
+    const std::string db = seeded.ble ? seeded.ble->db : "";
+    seeded.ble = BleSeed{};
+    seeded.ble->db = db;
+    seeded.ble->fit = "seed000";
+    seeded.name += "_seeded";
+    addedSeed = true;
+  }
+
+  // Fresh databases: nothing replayed from an earlier session.
+  const fs::path dir = fs::temp_directory_path() /
+                       ("blt_bench_campaign_" + std::to_string(::getpid()) + "_" + std::to_string(std::time(nullptr)));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const unsigned cores = std::thread::hardware_concurrency();
+  if (!o.quiet)
+    std::fprintf(stderr, "bench campaign: %d points at once, %d thread(s) per run, %u cores seen; run databases in %s\n",
+                 o.jobs, o.threads, cores, dir.string().c_str());
+
+  CampaignRunOptions ro;
+  ro.jobs = o.jobs;
+  ro.simulator = impactSimulator(o.threads);
+  const auto progressFor = [&o](const std::string& name) -> std::function<void(const CampaignProgress&)> {
+    if (o.quiet) return {};
+    return [name](const CampaignProgress& p) {
+      std::fprintf(stderr, "[%s] %s: %s | points %d/%d, runs %d, ETA %s\n", clock(p.elapsedSeconds).c_str(),
+                   name.c_str(), p.event.c_str(), p.pointsDone, p.pointsTotal, p.simulated + p.replayed,
+                   clock(p.etaSeconds).c_str());
+      std::fflush(stderr);
+    };
+  };
+
+  ro.progress = progressFor(plain.name);
+  const std::string plainBrackets = plain.ble ? "BLE fit '" + plain.ble->fit + "' (the campaign's [ble])" : "the campaign's";
+  const CampaignBenchmark a = benchmarkCampaign(plain, (dir / "unseeded.sqlite").string(), ro);
+
+  std::optional<CampaignBenchmark> b;
+  std::string seededBrackets;
+  if (skipped.empty()) {
+    try {
+      const std::string fit = benchSeedFit(*seeded.ble, dir);
+      char width[32];
+      std::snprintf(width, sizeof width, "%.3g", 100 * seeded.ble->halfWidth);
+      seededBrackets = "BLE fit '" + seeded.ble->fit + "' +-" + width + " %" + (addedSeed ? " (added by the benchmark: the file has no [ble])" : "") + "; " + fit;
+      if (!o.quiet) std::fprintf(stderr, "seeded variant %s: %s\n", seeded.name.c_str(), seededBrackets.c_str());
+    } catch (const std::exception& e) {
+      skipped = std::string("no BLE fit to seed from: ") + e.what();
+    }
+  }
+  if (skipped.empty()) {
+    ro.progress = progressFor(seeded.name);
+    b = benchmarkCampaign(seeded, (dir / "seeded.sqlite").string(), ro);
+  } else if (!o.quiet) {
+    std::fprintf(stderr, "seeded comparison skipped: %s\n", skipped.c_str());
+  }
+  if (o.keep) {
+    if (!o.quiet) std::fprintf(stderr, "kept the run databases in %s\n", dir.string().c_str());
+  } else {
+    std::error_code ignored;
+    fs::remove_all(dir, ignored);
+  }
+
+  const auto percent = [](double part, double whole) { return whole > 0 ? 100 * part / whole : 0.0; };
+  if (o.json) {
+    nlohmann::json doc = {{"jobs", o.jobs},
+                          {"threads_per_run", o.threads},
+                          {"hardware_threads", cores},
+                          {"quick", o.quick},
+                          {"target_wall_time_s", kBenchTargetSeconds},
+                          {"unseeded", benchJson(a, plain, plainBrackets)},
+                          {"seeded", b ? benchJson(*b, seeded, seededBrackets) : nlohmann::json()},
+                          {"seeded_skipped", skipped.empty() ? nlohmann::json() : nlohmann::json(skipped)},
+                          {"saving", nlohmann::json()}};
+    if (o.keep) doc["run_databases_dir"] = dir.string();
+    if (b)
+      doc["saving"] = {{"runs", a.runs - b->runs},
+                       {"runs_percent", percent(a.runs - b->runs, a.runs)},
+                       {"wall_time_s", a.wallSeconds - b->wallSeconds},
+                       {"wall_time_percent", percent(a.wallSeconds - b->wallSeconds, a.wallSeconds)}};
+    return printJson(doc);
+  }
+  std::printf("bench campaign: %d points at once, %d thread(s) per run, %u cores seen\n", o.jobs, o.threads, cores);
+  printBench(a, plain, plainBrackets);
+  if (!b) {
+    std::printf("seeded comparison skipped: %s\n", skipped.c_str());
+    return;
+  }
+  printBench(*b, seeded, seededBrackets);
+  if (b->points != a.points)
+    std::printf("note: the two campaigns have different points (%d and %d)\n", a.points, b->points);
+  std::printf("BLE-seeded brackets save %d runs of %d (%.0f %%) and %.1f s of %.1f s wall time (%.0f %%)\n",
+              a.runs - b->runs, a.runs, percent(a.runs - b->runs, a.runs), a.wallSeconds - b->wallSeconds,
+              a.wallSeconds, percent(a.wallSeconds - b->wallSeconds, a.wallSeconds));
+}
 }  // namespace
 
 void registerCampaignCommand(CLI::App& app) {
@@ -353,6 +577,33 @@ void registerCampaignCommand(CLI::App& app) {
     addJsonFlag(*cmd, o->json);
     cmd->callback([o] { mergeCommand(*o); });
   }
+}
+
+
+void registerBenchCampaignCommand(CLI::App& bench) {
+  auto o = std::make_shared<BenchCampaignOptions>();
+  auto* cmd = bench.add_subcommand(
+      "campaign",
+      "Wall time of a whole campaign run from scratch (fresh run databases, every run simulated): the theta = 0 "
+      "campaign at the seed's resolution (target: under 15 min on 2 cores), runs per point, points resolved; then "
+      "the same with BLE-seeded first brackets and what they save. Makes the BLE fit the seeded campaign names when "
+      "its store lacks it. Example: blt bench campaign --jobs 2 --threads 1; smoke check: blt bench campaign --quick");
+  auto* campaignOpt = cmd->add_option("--campaign", o->campaign,
+                                      "Campaign without seeding (default data/campaigns/seed000_theta0.toml)");
+  auto* seededOpt = cmd->add_option(
+      "--seeded", o->seeded,
+      "Its BLE-seeded variant (default data/campaigns/seed000_theta0_seeded.toml; a file without [ble] is seeded "
+      "from fit seed000, +-10 %)");
+  cmd->add_flag("--quick", o->quick, "data/campaigns/seed000_quick.toml for both (seconds, a smoke check)")
+      ->excludes(campaignOpt)
+      ->excludes(seededOpt);
+  cmd->add_option("--ble-db", o->bleDb, "BLE store for the seeded variant, in place of its [ble] db");
+  cmd->add_option("--jobs", o->jobs, "Points at once (default 2)");
+  cmd->add_option("--threads", o->threads, "OpenMP threads per run (default 1; 0: all cores)");
+  cmd->add_flag("--keep", o->keep, "Keep the run databases (their directory is printed) for blt campaign status");
+  cmd->add_flag("--quiet", o->quiet, "No progress lines");
+  addJsonFlag(*cmd, o->json);
+  cmd->callback([o] { benchCampaign(*o); });
 }
 
 }  // namespace blt::cli

@@ -17,4 +17,5 @@ void registerBenchScenarioCommand(CLI::App& bench);        // sim_scenario.cpp: 
 void registerValidateCommand(CLI::App& app);               // validate.cpp
 void registerCalibrateCommand(CLI::App& app);              // calibrate.cpp
 void registerCampaignCommand(CLI::App& app);               // campaign.cpp
+void registerBenchCampaignCommand(CLI::App& bench);        // campaign.cpp: bench campaign
 }  // namespace blt::cli

@@ -18,9 +18,10 @@
 
 namespace blt::campaign {
 
-SimulationOutcome simulateImpact(const sim::ImpactScenario& scenario) {
+namespace {
+SimulationOutcome simulateOn(const sim::ImpactScenario& scenario, int threads) {
   sim::ImpactRunOptions ro;
-  ro.threads = 1;  // the campaign runs points side by side instead
+  ro.threads = threads;
   const sim::ImpactResult r = sim::runImpact(scenario, ro);
   SimulationOutcome o;
   o.failed = r.status == sim::RunStatus::unstable;
@@ -31,6 +32,15 @@ SimulationOutcome simulateImpact(const sim::ImpactScenario& scenario) {
   o.wallSeconds = r.wallSeconds;
   o.measurements = r.summary;
   return o;
+}
+}  // namespace
+
+// One thread: the campaign runs points side by side instead.
+SimulationOutcome simulateImpact(const sim::ImpactScenario& scenario) { return simulateOn(scenario, 1); }
+
+Simulator impactSimulator(int threads) {
+  if (threads == 1) return simulateImpact;
+  return [threads](const sim::ImpactScenario& scenario) { return simulateOn(scenario, threads); };
 }
 
 bool ownsPoint(int index, int taskIndex, int taskCount) { return index % taskCount == taskIndex - 1; }

@@ -40,6 +40,8 @@ struct SimulationOutcome {
 using Simulator = std::function<SimulationOutcome(const sim::ImpactScenario&)>;
 // The MPM impact run (sim::runImpact) on one thread; an unstable run is a failed one, with the solver's message.
 SimulationOutcome simulateImpact(const sim::ImpactScenario& scenario);
+// The same with `threads` OpenMP threads per run (0: all cores), for runs that are not side by side.
+Simulator impactSimulator(int threads);
 
 struct CampaignProgress {
   int pointsDone = 0, pointsTotal = 0;  // of this task
