@@ -22,6 +22,7 @@
 #include "blt/campaign/bench.hpp"
 #include "blt/campaign/campaign.hpp"
 #include "blt/campaign/database.hpp"
+#include "blt/campaign/isolated.hpp"
 #include "blt/campaign/mpi.hpp"
 #include "blt/campaign/runner.hpp"
 #include "cli_support.hpp"
@@ -89,12 +90,26 @@ void printPoints(const std::vector<PointRecord>& points, const std::string& vari
   }
 }
 
+// Each run in a blt process of its own, so that a crash is a failed run and not the end of the campaign;
+// --in-process (or MPI, whose ranks are processes already) runs them on threads of this one.
+Simulator campaignSimulator(bool inProcess, int threads) {
+  if (inProcess) return impactSimulator(threads);
+  IsolatedRunOptions io;
+  io.executable = currentExecutable();
+  io.threads = threads;
+  return isolatedSimulator(io);
+}
+
+constexpr const char* kInProcessHelp =
+    "Run the simulations on threads of this process instead of one blt process each (a crashing run then ends "
+    "the campaign; what was recorded stays)";
+
 // ---- blt campaign run --------------------------------------------------------------------------------------------
 
 struct RunCommandOptions {
   std::string file, db, task = "1/1", bleDb;
   int jobs = 1;
-  bool json = false, quiet = false, mpi = false;
+  bool json = false, quiet = false, mpi = false, inProcess = false;
 };
 
 void runCommand(const RunCommandOptions& o) {
@@ -110,6 +125,7 @@ void runCommand(const RunCommandOptions& o) {
   ro.jobs = o.jobs;
   ro.taskIndex = taskIndex;
   ro.taskCount = taskCount;
+  if (!o.mpi) ro.simulator = campaignSimulator(o.inProcess, 1);
   const bool tty = isatty(fileno(stderr)) != 0;
   if (!o.quiet && !o.json && !o.mpi) {
     std::fprintf(stderr, "campaign %s: %zu points (%s), %s bisection, base scenario %s; %d at once; database %s\n",
@@ -308,7 +324,7 @@ struct BenchCampaignOptions {
   std::string seeded = std::string(BLT_DATA_DIR) + "/campaigns/seed000_theta0_seeded.toml";
   std::string bleDb;
   int jobs = 2, threads = 1;
-  bool quick = false, json = false, quiet = false, keep = false;
+  bool quick = false, json = false, quiet = false, keep = false, inProcess = false;
 };
 
 // A campaign file as given (relative to the working directory), else relative to the checkout, so that
@@ -436,7 +452,7 @@ void benchCampaign(const BenchCampaignOptions& o) {
 
   CampaignRunOptions ro;
   ro.jobs = o.jobs;
-  ro.simulator = impactSimulator(o.threads);
+  ro.simulator = campaignSimulator(o.inProcess, o.threads);
   const auto progressFor = [&o](const std::string& name) -> std::function<void(const CampaignProgress&)> {
     if (o.quiet) return {};
     return [name](const CampaignProgress& p) {
@@ -539,6 +555,7 @@ void registerCampaignCommand(CLI::App& app) {
                   std::string("Under mpirun: rank 0 walks the bisections and writes --db, the other ranks simulate "
                               "(mpirun -n K blt campaign run CAMPAIGN --db FILE --mpi)") +
                       (mpiAvailable() ? "" : "; this blt was built without MPI"));
+    cmd->add_flag("--in-process", o->inProcess, kInProcessHelp);
     cmd->add_flag("--quiet", o->quiet, "No progress lines");
     addJsonFlag(*cmd, o->json);
     cmd->callback([o] { runCommand(*o); });
@@ -600,6 +617,7 @@ void registerBenchCampaignCommand(CLI::App& bench) {
   cmd->add_option("--ble-db", o->bleDb, "BLE store for the seeded variant, in place of its [ble] db");
   cmd->add_option("--jobs", o->jobs, "Points at once (default 2)");
   cmd->add_option("--threads", o->threads, "OpenMP threads per run (default 1; 0: all cores)");
+  cmd->add_flag("--in-process", o->inProcess, kInProcessHelp);
   cmd->add_flag("--keep", o->keep, "Keep the run databases (their directory is printed) for blt campaign status");
   cmd->add_flag("--quiet", o->quiet, "No progress lines");
   addJsonFlag(*cmd, o->json);
