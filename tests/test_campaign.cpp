@@ -438,6 +438,17 @@ TEST_CASE("campaign: task split into parts and merged equals one run") {
   const CampaignRunResult again = runCampaign(c, merged, o);
   CHECK(none.calls == 0);
   CHECK(again.replayed == 80);
+  // Merged into one of the parts, the part becomes the whole campaign (1/1) too.
+  RunDatabase intoPart((dir / "part-1.sqlite").string());
+  intoPart.mergeFrom((dir / "part-2.sqlite").string());
+  intoPart.mergeFrom((dir / "part-3.sqlite").string());
+  CHECK(intoPart.findCampaign("split")->taskIndex == 1);
+  CHECK(intoPart.findCampaign("split")->taskCount == 1);
+  CHECK(finalOf(intoPart, "split") == finalOf(whole, "split"));
+  FakeSolver stillNone;
+  o.simulator = stillNone.simulator();
+  CHECK(runCampaign(c, intoPart, o).replayed == 80);
+  CHECK(stillNone.calls == 0);
 
   // Parts of another definition are refused.
   const Campaign other = parseCampaign(campaignText("split", kBisect + "[grid]\nvelocity = [\"2 km/s\"]\n"),

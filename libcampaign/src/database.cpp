@@ -412,6 +412,14 @@ int RunDatabase::mergeFrom(const std::string& otherPath) {
                              c.definitionHash + ", not " + mine->definitionHash + ")",
                          "parts of one campaign, run from the same campaign file and scenario");
       id = mine->id;
+      // A task's part with another part merged in is no longer that task's: it holds shares of several, and
+      // `campaign run` without --task finishes whatever is still missing.
+      if (mine->taskIndex != c.taskIndex || mine->taskCount != c.taskCount) {
+        sql::Query q(db_, path_, "UPDATE campaigns SET task_index = 1, task_count = 1 WHERE id = ?1",
+                     "relabelling the merged campaign");
+        q.bind(1, id);
+        q.run();
+      }
     } else {
       // The merged file holds every task's points: it is the whole campaign (1/1).
       sql::Query q(db_, path_,
