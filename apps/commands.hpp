@@ -16,6 +16,7 @@ void registerBenchCommand(CLI::App& app);                  // sim.cpp
 void registerBenchScenarioCommand(CLI::App& bench);        // sim_scenario.cpp: bench scenario
 void registerValidateCommand(CLI::App& app);               // validate.cpp
 void registerCalibrateCommand(CLI::App& app);              // calibrate.cpp
+void registerBenchCalibrateCommand(CLI::App& bench);       // calibrate.cpp: bench calibrate
 void registerCampaignCommand(CLI::App& app);               // campaign.cpp
 void registerBenchCampaignCommand(CLI::App& bench);        // campaign.cpp: bench campaign
 }  // namespace blt::cli

@@ -25,6 +25,7 @@ int main(int argc, char** argv) {
   blt::cli::registerSimCommand(app);
   blt::cli::registerBenchCommand(app);
   blt::cli::registerBenchCampaignCommand(*app.get_subcommand("bench"));
+  blt::cli::registerBenchCalibrateCommand(*app.get_subcommand("bench"));
   blt::cli::registerValidateCommand(app);
   blt::cli::registerCalibrateCommand(app);
   blt::cli::registerCampaignCommand(app);

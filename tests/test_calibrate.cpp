@@ -26,8 +26,9 @@
 #include "blt/calibrate/measured.hpp"
 #include "blt/calibrate/report.hpp"
 #include "blt/calibrate/solver_model.hpp"
+#include "blt/calibrate/synthetic.hpp"
 #include "blt/core/error.hpp"
-#include "gaussian.hpp"
+#include "blt/core/seeded_gaussian.hpp"
 #include "run_blt.hpp"
 
 using namespace blt;
@@ -137,6 +138,36 @@ TEST_CASE("calibrate: a strength effect (higher ballistic limit) is named and it
   const double se = sigma / std::sqrt(sumJ2);
   CHECK(std::abs(r.winningFit()->parameter - scale) <= 4 * se);
   CHECK(r.winningFit()->heldoutError < r.before.combined);
+}
+
+TEST_CASE("calibrate: synthesize makes data from a model with an effect; noise-free, the calibrator recovers it") {
+  // The shape: the shots of residualCsv, with residual velocities and outcomes.
+  std::ostringstream csv;
+  csv << "case,impact_velocity_m_s,residual_velocity_m_s,perforated\n";
+  int k = 0;
+  for (double v : shotVelocities()) csv << "s" << ++k << "," << v << ",1,Y\n";
+  const MeasuredData shape = parse(csv.str());
+  AnalyticModel model(analytic::ResidualVelocityModel::rechtIpson, baseConstants);
+  SyntheticOptions o;
+  o.setting = {&findEffect(model, "strength_scale", {}), 1.3};
+  const MeasuredData data = synthesize(model, shape, o);
+  REQUIRE(data.observations.size() == shape.observations.size());
+  // Strength x 1.3 raises v_bl by sqrt(1.3) (Recht-Ipson with a = 1, p = 2: v_r = sqrt(v^2 - 1.3 v_bl^2)).
+  const double limit = baseLimit * std::sqrt(1.3);
+  for (const Observation& obs : data.observations) {
+    const double v = data.cases[obs.caseIndex].velocity;
+    CAPTURE(v);
+    if (obs.kind == ObservationKind::residualVelocity) CHECK(obs.value == doctest::Approx(rechtIpson(1.0, limit, v)));
+    if (obs.kind == ObservationKind::outcome) CHECK(obs.value == (v > limit ? 1.0 : 0.0));
+  }
+  const CalibrationResult r = runAnalytic(data);
+  REQUIRE(r.winningFit() != nullptr);
+  CHECK(r.winningFit()->effect.name == "strength_scale");
+  CHECK(r.winningFit()->parameter == doctest::Approx(1.3).epsilon(1e-3));
+  // Scatter is seeded: the same seed, the same data.
+  o.velocityScatter = 3.0;
+  const MeasuredData a = synthesize(model, shape, o), b = synthesize(model, shape, o);
+  for (std::size_t i = 0; i < a.observations.size(); ++i) CHECK(a.observations[i].value == b.observations[i].value);
 }
 
 TEST_CASE("calibrate: data from the base model with scatter only give no effect found") {

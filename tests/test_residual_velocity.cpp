@@ -16,7 +16,7 @@
 
 #include "approx.hpp"
 #include "blt/analytic/residual_velocity.hpp"
-#include "gaussian.hpp"
+#include "blt/core/seeded_gaussian.hpp"
 
 using namespace blt;
 using namespace blt::analytic;

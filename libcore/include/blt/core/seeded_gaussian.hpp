@@ -1,10 +1,12 @@
 #pragma once
-// Standard normal deviates for synthetic test data, the same on every platform: a fixed-seed mt19937 (its
-// output is fixed by the standard, std::normal_distribution's is not) through the Box-Muller transform.
+// Standard normal deviates for synthetic data (tests, benchmarks), the same on every platform: a fixed-seed
+// mt19937 (its output is fixed by the standard, std::normal_distribution's is not) through Box-Muller.
 #include <cmath>
 #include <cstdint>
 #include <numbers>
 #include <random>
+
+namespace blt {
 
 class SeededGaussian {
  public:
@@ -18,3 +20,5 @@ class SeededGaussian {
  private:
   std::mt19937 engine_;
 };
+
+}  // namespace blt

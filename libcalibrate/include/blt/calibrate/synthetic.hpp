@@ -1,0 +1,23 @@
+#pragma once
+// "Measured" data made by a model, for checking the calibrator on data whose effect is known: the cases and
+// the kinds of observation of a template (a real measured file), each value replaced by the model's prediction
+// with an effect switched on, and seeded scatter added. Only the data go to the calibrator.
+
+#include <cstdint>
+
+#include "blt/calibrate/measured.hpp"
+#include "blt/calibrate/model.hpp"
+
+namespace blt::calibrate {
+
+struct SyntheticOptions {
+  EffectSetting setting;             // the effect that makes the data (none: the base model's own data)
+  double holeScatter = 0;            // relative standard deviation of hole sizes (0.05: 5 %)
+  double velocityScatter = 0;        // m/s, standard deviation of residual velocities of perforating shots
+  std::uint32_t seed = 1;
+};
+
+// Outcomes stay binary (no scatter). Hole sizes and residual velocities stay positive.
+MeasuredData synthesize(Model& model, const MeasuredData& shape, const SyntheticOptions& options);
+
+}  // namespace blt::calibrate
