@@ -30,6 +30,7 @@
 #include "blt/core/error.hpp"
 #include "blt/core/seeded_gaussian.hpp"
 #include "run_blt.hpp"
+#include "scratch_dir.hpp"
 
 using namespace blt;
 using namespace blt::calibrate;
@@ -81,12 +82,7 @@ std::string messageOf(const std::function<void()>& f) {
   return "(no InputError)";
 }
 
-std::string tempDir(const std::string& name) {
-  const fs::path p = fs::temp_directory_path() / ("blt_calibrate_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(p);
-  fs::create_directories(p);
-  return p.string();
-}
+std::string tempDir(const std::string& name) { return scratchDir("calibrate", name).string(); }
 
 }  // namespace
 

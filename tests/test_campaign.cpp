@@ -22,19 +22,14 @@
 #include "blt/campaign/database.hpp"
 #include "blt/campaign/runner.hpp"
 #include "run_blt.hpp"
+#include "scratch_dir.hpp"
 
 namespace fs = std::filesystem;
 using namespace blt::campaign;
 
 namespace {
 
-// A fresh directory per test case.
-fs::path scratch(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / ("blt_campaign_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
+fs::path scratch(const std::string& name) { return scratchDir("campaign", name); }
 
 const std::string kScenario = std::string(BLT_DATA_DIR) + "/scenarios/fabric_al_corrected.toml";
 

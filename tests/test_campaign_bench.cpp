@@ -12,18 +12,14 @@
 #include "blt/campaign/campaign.hpp"
 #include "blt/core/error.hpp"
 #include "run_blt.hpp"
+#include "scratch_dir.hpp"
 
 namespace fs = std::filesystem;
 using namespace blt::campaign;
 
 namespace {
 
-fs::path benchScratch(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / ("blt_bench_campaign_test_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
+fs::path benchScratch(const std::string& name) { return scratchDir("bench_campaign_test", name); }
 
 // Perforated exactly above d_c = 1 mm (5 km/s / V)^0.5: instant and deterministic.
 Simulator countingFake(std::atomic<int>& calls) {

@@ -9,6 +9,7 @@
 #include <string>
 
 #include "approx.hpp"
+#include "scratch_dir.hpp"
 #include "blt/campaign/campaign.hpp"
 #include "blt/campaign/database.hpp"
 #include "blt/campaign/isolated.hpp"
@@ -25,12 +26,7 @@ namespace {
 const std::string kScenario = std::string(BLT_DATA_DIR) + "/scenarios/fabric_al_corrected.toml";
 const std::string kBlt = std::string(BLT_BINARY_DIR) + "/bin/blt";
 
-fs::path scratch(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / ("blt_isolated_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
+fs::path scratch(const std::string& name) { return scratchDir("isolated", name); }
 
 // A stand-in for the blt program: a shell script given as IsolatedRunOptions::executable.
 std::string script(const fs::path& path, const std::string& body) {
