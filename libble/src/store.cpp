@@ -16,6 +16,7 @@
 #include <optional>
 #include <string_view>
 
+#include "blt/core/clock.hpp"
 #include "blt/core/error.hpp"
 
 namespace blt::ble {
@@ -393,15 +394,6 @@ FitOptions optionsFromJson(const std::string& text, const InputLocation& where) 
     throw InputError(where, std::string("has a value of the wrong type: ") + e.what(), "the JSON object blt writes");
   }
   return o;
-}
-
-std::string nowUtcIso8601() {
-  const std::time_t now = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
-  std::tm utc{};
-  gmtime_r(&now, &utc);
-  char text[32];
-  std::strftime(text, sizeof text, "%Y-%m-%dT%H:%M:%SZ", &utc);
-  return text;
 }
 
 // SQLite stores a NaN as NULL, so a NaN could not come back as itself; refuse it with a message that says where.

@@ -9,6 +9,7 @@
 #include <fstream>
 #include <map>
 
+#include "blt/core/clock.hpp"
 #include "blt/core/units.hpp"
 #include "sqlite.hpp"
 
@@ -203,7 +204,7 @@ bool insertRun(sqlite3* db, const std::string& file, std::int64_t campaign, cons
   // NaN and infinities are no JSON; the summary's are written as null by nlohmann::json.
   q.bind(15, r.measurements.is_null() ? std::string("{}") : r.measurements.dump(-1, ' ', false,
                                                                                   nlohmann::json::error_handler_t::replace));
-  q.bind(16, r.wallSeconds).bind(17, r.toolVersion).bind(18, r.createdUtc.empty() ? nowUtc() : r.createdUtc);
+  q.bind(16, r.wallSeconds).bind(17, r.toolVersion).bind(18, r.createdUtc.empty() ? nowUtcIso8601() : r.createdUtc);
   q.run();
   return q.changes() > 0;
 }
@@ -216,7 +217,7 @@ void writePoint(sqlite3* db, const std::string& file, std::int64_t campaign, con
                "recording a point");
   q.bind(1, campaign).bind(2, p.index).bind(3, p.label).bind(4, p.velocity).bind(5, p.diameter).bind(6, p.angle);
   q.bind(7, p.bracketLower).bind(8, p.bracketUpper).bind(9, p.bracketOrigin).bind(10, toString(p.state));
-  q.bind(11, p.largestSafe).bind(12, p.smallestPerforating).bind(13, p.runs).bind(14, p.message).bind(15, nowUtc());
+  q.bind(11, p.largestSafe).bind(12, p.smallestPerforating).bind(13, p.runs).bind(14, p.message).bind(15, nowUtcIso8601());
   q.run();
 }
 
@@ -238,15 +239,6 @@ const char* toString(PointState s) {
     case PointState::unresolved: return "unresolved";
   }
   return "pending";
-}
-
-std::string nowUtc() {
-  const std::time_t now = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
-  std::tm utc{};
-  gmtime_r(&now, &utc);
-  char text[32];
-  std::strftime(text, sizeof text, "%Y-%m-%dT%H:%M:%SZ", &utc);
-  return text;
 }
 
 RunDatabase::RunDatabase(const std::string& path) : path_(path) {
@@ -316,7 +308,7 @@ std::int64_t RunDatabase::ensureCampaign(const Campaign& c, double projectileDen
                "task_count, created_utc) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8)",
                "recording the campaign");
   q.bind(1, c.name).bind(2, c.definition().dump()).bind(3, hash).bind(4, sim::toString(c.variable));
-  q.bind(5, projectileDensity).bind(6, taskIndex).bind(7, taskCount).bind(8, nowUtc());
+  q.bind(5, projectileDensity).bind(6, taskIndex).bind(7, taskCount).bind(8, nowUtcIso8601());
   q.run();
   const std::int64_t id = sqlite3_last_insert_rowid(db_);
   tx.commit();

@@ -118,6 +118,5 @@ std::vector<ble::ImpactPoint> campaignImpactPoints(const RunDatabase& db, const 
 // Writes them as the project's binary impact CSV (readImpactCsv reads it back). Returns the rows written.
 int writeImpactCsv(const std::string& path, const std::vector<ble::ImpactPoint>& points, const std::string& comment);
 
-std::string nowUtc();  // ISO 8601, seconds
 
 }  // namespace blt::campaign
