@@ -192,7 +192,7 @@ struct BenchCalibrateOptions {
   double gap = 1.2e-3;           // m, the gap the data are made with (off the 0.5 mm grid on purpose)
   double holeScatter = 0.05;
   std::string spacing = "0.2mm", cell = "0.4mm";
-  int jobs = 2, threads = 1;
+  int jobs = 2, threads = 1, grid = 0;  // grid 0: the solver model's default (7 points)
   bool json = false, keep = false;
 };
 
@@ -211,6 +211,7 @@ void benchCalibrate(const BenchCalibrateOptions& o) {
   so.threads = o.threads;
   cal::CalibrationOptions options;
   options.effects = {"interlayer_gaps", "gap:plate", "thickness:outer"};
+  options.gridPoints = o.grid;
 
   struct Check {
     std::string name;
@@ -236,8 +237,8 @@ void benchCalibrate(const BenchCalibrateOptions& o) {
     const cal::EffectFit* w = result.winningFit();
     const std::string named = w ? w->effect.name : "none";
     const bool rightEffect = named == (check.effect ? check.effect : "none");
-    // Within one grid step (3 mm over 7 points: 0.5 mm) of the gap the data were made with.
-    const double step = 0.5e-3;
+    // Within one grid step of the gap the data were made with (3 mm over the grid's points).
+    const double step = 3e-3 / ((o.grid > 0 ? o.grid : model.suggestedGridPoints()) - 1);
     const bool rightValue = !check.effect || (w && std::fabs(w->parameter - o.gap) <= step + 1e-12);
     allMet = allMet && rightEffect && rightValue;
     nlohmann::json row = {{"data", check.name},
@@ -251,23 +252,24 @@ void benchCalibrate(const BenchCalibrateOptions& o) {
                           {"met", rightEffect && rightValue}};
     if (check.effect) row["true_gap_mm"] = o.gap * 1e3;
     if (w) {
-      row["fitted_mm"] = w->parameter * 1e3;
+      row["fitted_" + w->effect.parameter.jsonKey] = w->parameter;
       row["t_statistic"] = w->tStatistic;
     }
     if (!o.json) {
       std::printf("%s: named %s", check.name.c_str(), named.c_str());
-      if (w) std::printf(" = %.3g mm (t %.2f)", w->parameter * 1e3, w->tStatistic);
+      if (w) std::printf(" = %s (t %.2f)", withUnit(w->parameter, w->effect.parameter.unit).c_str(), w->tStatistic);
       if (check.effect) std::printf("; made with %s = %.3g mm", check.effect, o.gap * 1e3);
-      std::printf("; held-out error %.3g -> %.3g; %d + %d runs, %.1f s; %s\n", result.before.combined,
+      std::printf("; held-out error %.3g -> %.3g; %d + %d runs made (others from the first check), %.1f s; %s\n", result.before.combined,
                   w ? w->heldoutError : result.before.combined, generated, model.runsMade() - generated, seconds,
                   rightEffect && rightValue ? "met" : "MISSED");
       for (const auto& f : result.ranking)
-        std::printf("    %-16s %.3g, held out %.3g; %s\n", f.effect.name.c_str(), f.parameter * (f.effect.parameter.unit == "mm" ? 1e3 : 1.0),
-                    f.heldoutError, f.verdict.c_str());
+        std::printf("    %-16s %s, held out %.3g; %s\n", f.effect.name.c_str(),
+                    withUnit(f.parameter, f.effect.parameter.unit).c_str(), f.heldoutError, f.verdict.c_str());
     }
     rows.push_back(row);
   }
   if (!o.keep) fs::remove_all(dir);
+  else if (!o.json) std::printf("runs kept in %s\n", dir.string().c_str());
   if (o.json)
     printJson({{"scenario", scenario}, {"spacing", o.spacing}, {"cell", o.cell}, {"checks", rows}, {"all_met", allMet}});
   else
@@ -288,6 +290,7 @@ void registerBenchCalibrateCommand(CLI::App& bench) {
   cmd->add_option("--hole-scatter", o->holeScatter, "Relative scatter of the hole sizes (default 0.05)");
   cmd->add_option("--spacing", o->spacing, "Particle spacing (default 0.2mm)");
   cmd->add_option("--cell", o->cell, "Cell size (default 0.4mm)");
+  cmd->add_option("--grid", o->grid, "Grid points per effect (default: the solver model's 7)");
   cmd->add_option("--jobs", o->jobs, "Runs at once (default 2)");
   cmd->add_option("--threads", o->threads, "Threads per run (default 1)");
   cmd->add_flag("--keep", o->keep, "Keep the runs (the directory is printed)");
