@@ -169,6 +169,11 @@ void registerCalibrateCommand(CLI::App& app) {
                 << withUnit(w->parameter, w->effect.parameter.unit) << "\n";
     else
       std::cout << "no effect found\n";
+    if (!result.alsoAccepted.empty()) {
+      std::cout << "  also accepted (the data do not single out one effect):";
+      for (std::size_t i : result.alsoAccepted) std::cout << " " << result.ranking[i].effect.name;
+      std::cout << "\n";
+    }
     std::cout << "  error before " << number(result.before.combined) << ", after "
               << number(w ? w->fitted.combined : result.before.combined) << "; held out before "
               << number(result.before.combined) << ", after " << number(w ? w->heldoutError : result.before.combined)

@@ -166,6 +166,58 @@ TEST_CASE("calibrate: synthesize makes data from a model with an effect; noise-f
   for (std::size_t i = 0; i < a.observations.size(); ++i) CHECK(a.observations[i].value == b.observations[i].value);
 }
 
+namespace {
+// Two effects that change the predictions in the same way (a residual velocity raised by the parameter): no data
+// can tell them apart.
+class TwinEffectModel : public Model {
+ public:
+  std::string describe() const override { return "twin-effect stand-in"; }
+  const std::vector<Effect>& effects() const override { return effects_; }
+  void check(const MeasuredData&) const override {}
+  std::vector<Prediction> predict(const MeasuredData& data, const std::vector<std::size_t>& cases,
+                                  const EffectSetting& setting) override {
+    std::vector<Prediction> out;
+    for (std::size_t c : cases) {
+      Prediction p;
+      p.perforated = true;
+      p.residualVelocity = data.cases[c].velocity * 0.5 + (setting.effect ? setting.value : 0.0);
+      out.push_back(p);
+    }
+    return out;
+  }
+  int suggestedGridPoints() const override { return 41; }
+  int suggestedRefineSteps() const override { return 40; }
+
+ private:
+  std::vector<Effect> effects_{{"first", "adds to v_r", {"shift", "", "shift", 0, 50, 0}},
+                               {"second", "adds to v_r the same way", {"shift", "", "shift", 0, 50, 0}}};
+};
+}  // namespace
+
+TEST_CASE("calibrate: when two effects explain the data equally, the second is reported as also accepted") {
+  // Data: v_r = V/2 + 20 m/s with seeded scatter of 1 m/s; both effects fit a shift of about 20.
+  SeededGaussian gauss(11);
+  std::ostringstream csv;
+  csv << "case,impact_velocity_m_s,residual_velocity_m_s\n";
+  for (int k = 0; k < 12; ++k) csv << "s" << k << "," << 200 + 10 * k << "," << 100 + 5 * k + 20 + gauss() << "\n";
+  const MeasuredData data = parse(csv.str());
+  TwinEffectModel model;
+  const CalibrationResult r = blt::calibrate::calibrate(model, data);
+  REQUIRE(r.winningFit() != nullptr);
+  REQUIRE(r.alsoAccepted.size() == 1);
+  const EffectFit& other = r.ranking[r.alsoAccepted[0]];
+  CHECK(other.effect.name != r.winningFit()->effect.name);
+  CHECK(other.parameter == doctest::Approx(r.winningFit()->parameter));
+  CHECK(toJson(r, data)["also_accepted"] == nlohmann::json::array({other.effect.name}));
+  const std::string dir = tempDir("twins");
+  writeReport(dir, r, data);
+  std::ifstream in(dir + "/report.md");
+  const std::string md((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  CHECK(md.find("Not the only explanation") != std::string::npos);
+  CHECK(md.find("`" + other.effect.name + "`") != std::string::npos);
+  fs::remove_all(dir);
+}
+
 TEST_CASE("calibrate: data from the base model with scatter only give no effect found") {
   for (uint32_t seed : {1u, 2u, 3u, 4u, 5u}) {
     CAPTURE(seed);

@@ -333,11 +333,11 @@ CalibrationResult calibrate(Model& model, const MeasuredData& data, const Calibr
   }
   std::stable_sort(result.ranking.begin(), result.ranking.end(),
                    [](const EffectFit& a, const EffectFit& b) { return a.heldoutError < b.heldoutError; });
-  for (std::size_t i = 0; i < result.ranking.size(); ++i)
-    if (result.ranking[i].accepted) {
-      result.winner = i;
-      break;
-    }
+  for (std::size_t i = 0; i < result.ranking.size(); ++i) {
+    if (!result.ranking[i].accepted) continue;
+    if (result.winner) result.alsoAccepted.push_back(i);
+    else result.winner = i;
+  }
   return result;
 }
 
@@ -399,6 +399,11 @@ nlohmann::json toJson(const CalibrationResult& r, const MeasuredData& data) {
                        {"profile", profile}});
   }
   const EffectFit* w = r.winningFit();
+  const auto alsoAcceptedNames = [](const CalibrationResult& c) {
+    nlohmann::json names = nlohmann::json::array();
+    for (std::size_t i : c.alsoAccepted) names.push_back(c.ranking[i].effect.name);
+    return names;
+  };
   nlohmann::json features = nlohmann::json::array();
   for (const auto& f : r.features) features.push_back({{"feature", f.feature}, {"correlation", f.correlation}, {"count", f.count}});
   nlohmann::json doc = {
@@ -409,6 +414,7 @@ nlohmann::json toJson(const CalibrationResult& r, const MeasuredData& data) {
       {"folds", r.folds},
       {"effect", w ? nlohmann::json(w->effect.name) : nlohmann::json("none")},
       {"no_effect_found", w == nullptr},
+      {"also_accepted", alsoAcceptedNames(r)},
       {"parameters", w ? nlohmann::json{{w->effect.parameter.jsonKey, w->parameter}} : nlohmann::json::object()},
       {"error_before", r.before.combined},
       {"error_after", w ? w->fitted.combined : r.before.combined},

@@ -114,6 +114,15 @@ std::vector<std::string> writeReport(const std::string& directory, const Calibra
   if (w) {
     md << "**Effect found: `" << w->effect.name << "`** (" << w->effect.description << "), "
        << w->effect.parameter.name << " = " << withUnit(w->parameter, w->effect.parameter.unit) << ".\n\n";
+    if (!r.alsoAccepted.empty()) {
+      md << "**Not the only explanation:** also accepted ";
+      for (std::size_t k = 0; k < r.alsoAccepted.size(); ++k) {
+        const EffectFit& f = r.ranking[r.alsoAccepted[k]];
+        md << (k ? ", " : "") << "`" << f.effect.name << "` (" << f.effect.parameter.name << " = "
+           << withUnit(f.parameter, f.effect.parameter.unit) << ", held-out error " << num(f.heldoutError) << ")";
+      }
+      md << ". The data do not single out one effect; a case where their predictions differ would.\n\n";
+    }
   } else {
     md << "**No effect found**: no candidate lowers the held-out error enough and significantly (rule below).\n\n";
   }

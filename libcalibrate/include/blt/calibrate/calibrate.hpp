@@ -95,6 +95,9 @@ struct CalibrationResult {
   std::vector<FeatureCorrelation> features; // of the base residuals
   std::vector<EffectFit> ranking;           // lowest held-out error first
   std::optional<std::size_t> winner;        // index into ranking
+  // The other accepted effects (indices into ranking): when there are any, the data do not single out one effect,
+  // and the report says so instead of presenting the winner as the only explanation.
+  std::vector<std::size_t> alsoAccepted;
 
   const EffectFit* winningFit() const { return winner ? &ranking[*winner] : nullptr; }
 };
