@@ -242,8 +242,9 @@ void benchCalibrate(const BenchCalibrateOptions& o) {
     const cal::EffectFit* w = result.winningFit();
     const std::string named = w ? w->effect.name : "none";
     const bool rightEffect = named == (check.effect ? check.effect : "none");
-    // Within one grid step of the gap the data were made with (3 mm over the grid's points).
-    const double step = 3e-3 / ((o.grid > 0 ? o.grid : model.suggestedGridPoints()) - 1);
+    // Within one grid step of the gap the data were made with (the effect's range over the grid's points).
+    const cal::EffectParameter& range = cal::findEffect(model, "interlayer_gaps", {}).parameter;
+    const double step = (range.upper - range.lower) / ((o.grid > 0 ? o.grid : model.suggestedGridPoints()) - 1);
     const bool rightValue = !check.effect || (w && std::fabs(w->parameter - o.gap) <= step + 1e-12);
     allMet = allMet && rightEffect && rightValue;
     nlohmann::json row = {{"data", check.name},

@@ -353,6 +353,8 @@ void Report::criticalDiameters(const CriticalDiameterCase& c) {
   md_ << "\n## " << c.heading << "\n\nBisection on the diameter from [" << fmt(c.lower * 1e3) << ", "
       << fmt(c.upper * 1e3) << "] mm to \u00b1" << fmt(c.tolerance * 1e3) << " mm; the seed's d_c is the mean of its "
       << "d_Ymin and d_Nmax.\n";
+  const std::string scenario = "scenarios/fabric_al_corrected.toml";
+  const double normalEnd = loadScenario(dataFile(scenario)).run.maxTime;
   std::vector<Comparison> rows;
   std::vector<svg::Series> series;
   for (double angle : c.anglesDeg) {
@@ -376,11 +378,10 @@ void Report::criticalDiameters(const CriticalDiameterCase& c) {
         // over a path 1/cos(theta) longer: 1/cos^2 the time. At 12 us a 45 deg run still held half its kinetic
         // energy and was called not perforated; at 30 us the same shot (1.2 mm, 6 km/s) perforated.
         const double cos = std::cos(angle * M_PI / 180);
-        const double normalEnd = loadScenario(dataFile("scenarios/fabric_al_corrected.toml")).run.maxTime;
         s.push_back("run.max_time=" + fmt(normalEnd / (cos * cos) * 1e6, "%.6g") + "us");
       }
       const std::string item = fmt(vKms) + " km/s, " + fmt(angle) + " deg";
-      const Limit l = ballisticLimit(log_, "scenarios/fabric_al_corrected.toml", s, BisectVariable::diameter, c.lower,
+      const Limit l = ballisticLimit(log_, scenario, s, BisectVariable::diameter, c.lower,
                                      c.upper, c.tolerance, c.section + " at " + item);
       Comparison k{c.section, item, "d_c", "mm"};
       k.seedModel = n ? sum / n : NAN;
