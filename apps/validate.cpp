@@ -375,8 +375,8 @@ void Report::criticalDiameters(const CriticalDiameterCase& c) {
       if (angle != 0) {
         s.push_back("projectile.angle=" + fmt(angle) + "deg");
         // The scenario's end time is for normal impact. Oblique, the debris crosses the stack at V cos(theta)
-        // over a path 1/cos(theta) longer: 1/cos^2 the time. At 12 us a 45 deg run still held half its kinetic
-        // energy and was called not perforated; at 30 us the same shot (1.2 mm, 6 km/s) perforated.
+        // over a path 1/cos(theta) longer: 1/cos^2 the time. A run that settles earlier (its rearward kinetic
+        // energy spent, verdict.hpp) stops there.
         const double cos = std::cos(angle * M_PI / 180);
         s.push_back("run.max_time=" + fmt(normalEnd / (cos * cos) * 1e6, "%.6g") + "us");
       }

@@ -22,7 +22,7 @@ template <int D>
 ImpactResult runModel(const ImpactScenario& sc, const ImpactRunOptions& options) {
   ImpactModel<D> model = buildImpactModel<D>(sc, options.threads);
   Solver<D>& solver = *model.solver;
-  const double initialKinetic = solver.energies().kinetic;
+  const KineticReference initialKinetic = kineticReference<D>(model);
 
   RunOptions ro;
   ro.endTime = sc.run.maxTime;
@@ -34,9 +34,22 @@ ImpactResult runModel(const ImpactScenario& sc, const ImpactRunOptions& options)
   // After a perforation the run goes on until the mass behind the wall and the residual velocity hold still
   // between two checks (a plug leaves before the projectile; a debris cloud keeps arriving for a while).
   PerforationVerdict previous;
-  if (sc.run.stopWhenSettled)
-    hooks.stop = [&](const Solver<D>&) {
+  // The verdict at every check, for a plot of why a run stopped when it did (or did not).
+  std::ofstream history;
+  if (!options.outputDirectory.empty()) {
+    std::filesystem::create_directories(options.outputDirectory);
+    history.open(std::filesystem::path(options.outputDirectory) / "verdict_history.csv");
+    history << "time_s,kinetic_fraction,rearward_kinetic_fraction,mass_behind_fraction,rear_opening,perforated,"
+               "settled\n";
+  }
+  if (sc.run.stopWhenSettled || history.is_open())
+    hooks.stop = [&](const Solver<D>& s) {
       const PerforationVerdict v = assessPerforation<D>(model, sc.verdict, initialKinetic, false);
+      if (history.is_open())
+        history << s.time() << ',' << v.kineticFraction << ',' << v.rearwardKineticFraction << ','
+                << v.massBehindFraction << ',' << v.rearOpening << ',' << v.perforated << ',' << v.settled
+                << std::endl;
+      if (!sc.run.stopWhenSettled) return std::string();
       const bool steady = !v.perforated ||
                           (std::fabs(v.massBehindFraction - previous.massBehindFraction) < kSteadyMassFraction &&
                            std::fabs(v.residualVelocity - previous.residualVelocity) <=
@@ -96,6 +109,7 @@ ImpactResult runModel(const ImpactScenario& sc, const ImpactRunOptions& options)
       {"hole_size_mm", holes},
       {"opening_size_mm", openings},
       {"kinetic_energy_fraction", v.kineticFraction},
+      {"rearward_kinetic_energy_fraction", v.rearwardKineticFraction},
       {"energy_initial", energy(r.initialEnergy)},
       {"energy_final", energy(r.finalEnergy)},
       {"status", toString(r.status)},

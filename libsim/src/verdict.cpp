@@ -28,11 +28,14 @@ Vec<D> footprint(const Particles<D>& P, std::size_t p) {
 }
 
 // Occupancy of a set of particles on a voxel grid, its connected components (through voxel faces) and their
-// masses (each particle counts in the component of the voxel that holds its centre).
+// masses (each particle counts in the component of the voxel that holds its centre). The grid starts at the
+// model's symmetry planes (`floor`; -infinity on an axis without one): a domain stretched across a plane is cut
+// there. Left free, the first voxel row would straddle the plane, mostly empty, and read as an opening along it.
 template <int D>
 class Voxels {
  public:
-  Voxels(const Particles<D>& P, const std::vector<std::size_t>& members, double pitch) : pitch_(pitch) {
+  Voxels(const Particles<D>& P, const std::vector<std::size_t>& members, double pitch, const Vec<D>& floor)
+      : pitch_(pitch) {
     if (members.empty()) return;
     Vec<D> lo = Vec<D>::Constant(kInfinity), hi = Vec<D>::Constant(-kInfinity);
     for (std::size_t p : members) {
@@ -40,6 +43,7 @@ class Voxels {
       lo = lo.cwiseMin(P.position[p] - h);
       hi = hi.cwiseMax(P.position[p] + h);
     }
+    lo = lo.cwiseMax(floor);
     double total = 1;
     for (int a = 0; a < D; ++a) total *= (hi[a] - lo[a]) / pitch_ + 1;
     if (total > kMaxVoxels) pitch_ *= std::pow(total / kMaxVoxels, 1.0 / D);
@@ -213,6 +217,19 @@ std::vector<std::size_t> bodyParticles(const Particles<D>& P, int body, bool wit
   return list;
 }
 
+// Where the voxel grids start: the symmetry planes (the axis r = 0 in axisymmetric runs; y = 0, and x = 0 in a
+// quarter model, in 3D).
+template <int D>
+Vec<D> symmetryFloor(const ImpactModel<D>& model) {
+  Vec<D> floor = Vec<D>::Constant(-kInfinity);
+  if constexpr (D == 2) floor[0] = 0.0;
+  if constexpr (D == 3) {
+    if (model.mirrorY) floor[1] = 0.0;
+    if (model.mirrorX) floor[0] = 0.0;
+  }
+  return floor;
+}
+
 std::string percent(double f) {
   std::ostringstream s;
   s.precision(3);
@@ -223,8 +240,18 @@ std::string percent(double f) {
 }  // namespace
 
 template <int D>
+KineticReference kineticReference(const ImpactModel<D>& model) {
+  const Particles<D>& P = model.solver->particles();
+  KineticReference k;
+  k.total = model.solver->energies().kinetic;
+  for (std::size_t p = 0; p < P.size(); ++p)
+    if (P.active[p] && P.velocity[p][D - 1] < 0) k.rearward += 0.5 * P.mass[p] * P.velocity[p][D - 1] * P.velocity[p][D - 1];
+  return k;
+}
+
+template <int D>
 PerforationVerdict assessPerforation(const ImpactModel<D>& model, const VerdictOptions& options,
-                                     double initialKinetic, bool measureHoles) {
+                                     const KineticReference& initial, bool measureHoles) {
   const Solver<D>& solver = *model.solver;
   const Particles<D>& P = solver.particles();
   const double h = solver.grid().cellSize;
@@ -233,7 +260,8 @@ PerforationVerdict assessPerforation(const ImpactModel<D>& model, const VerdictO
 
   // The rear wall: its largest connected piece, failed points included, and its rear surface per column.
   const std::vector<std::size_t> wallMembers = bodyParticles(P, wallLayer.body, true);
-  const Voxels<D> wall(P, wallMembers, wallLayer.spacing);
+  const Vec<D> floor = symmetryFloor(model);
+  const Voxels<D> wall(P, wallMembers, wallLayer.spacing, floor);
   const int wallPiece = wall.largest();
   std::vector<char> inWall(P.size(), 0);
   for (std::size_t p : wallMembers) inWall[p] = wall.componentAt(P.position[p]) == wallPiece;
@@ -242,7 +270,7 @@ PerforationVerdict assessPerforation(const ImpactModel<D>& model, const VerdictO
   // Material behind it: separated, moving rearward, or gone out through the grid's rear face.
   const double gridFloor = solver.grid().lower[D - 1] + h;
   const double gap = options.separationCells * h;
-  double massBehind = 0;
+  double massBehind = 0, rearwardKinetic = 0;
   std::vector<std::size_t> behind;
   for (std::size_t p = 0; p < P.size(); ++p) {
     const Vec<D>& x = P.position[p];
@@ -250,7 +278,13 @@ PerforationVerdict assessPerforation(const ImpactModel<D>& model, const VerdictO
       if (x[D - 1] < gridFloor) massBehind += P.mass[p];
       continue;
     }
-    if (inWall[p] || P.velocity[p][D - 1] >= 0) continue;
+    const double vz = P.velocity[p][D - 1];
+    if (vz >= 0) continue;
+    const double rearward = 0.5 * P.mass[p] * vz * vz;
+    if (inWall[p]) {
+      rearwardKinetic += rearward;
+      continue;
+    }
     // Behind the wall's rear surface where the wall is; behind its original rear face through a hole.
     double local = wallLayer.rear;
     if (wallPiece >= 0) {
@@ -267,6 +301,8 @@ PerforationVerdict assessPerforation(const ImpactModel<D>& model, const VerdictO
     if (x[D - 1] + footprint(P, p)[D - 1] < local - gap) {
       massBehind += P.mass[p];
       behind.push_back(p);
+    } else {
+      rearwardKinetic += rearward;
     }
   }
   v.massBehindFraction = model.projectileMass > 0 ? massBehind / model.projectileMass : 0.0;
@@ -274,7 +310,8 @@ PerforationVerdict assessPerforation(const ImpactModel<D>& model, const VerdictO
 
   const LayerHole opening = holeAround(wall, wallPiece, model, 0.5 * (wallLayer.front + wallLayer.rear));
   v.rearOpening = opening.horizontal > 0 || opening.vertical > 0;
-  v.kineticFraction = initialKinetic > 0 ? solver.energies().kinetic / initialKinetic : 0.0;
+  v.kineticFraction = initial.total > 0 ? solver.energies().kinetic / initial.total : 0.0;
+  v.rearwardKineticFraction = initial.rearward > 0 ? rearwardKinetic / initial.rearward : 0.0;
 
   if (v.massBehindFraction >= options.debrisMassFraction) {
     v.perforated = v.settled = true;
@@ -283,8 +320,9 @@ PerforationVerdict assessPerforation(const ImpactModel<D>& model, const VerdictO
     v.perforated = true;
     v.reason = "through-thickness opening in the rear wall";
   } else {
-    v.settled = v.kineticFraction < options.settledKineticFraction;
-    v.reason = v.settled ? "stopped: kinetic energy down to " + percent(v.kineticFraction) + " of the initial"
+    v.settled = v.rearwardKineticFraction < options.settledKineticFraction;
+    v.reason = v.settled ? "stopped: rearward kinetic energy down to " + percent(v.rearwardKineticFraction) +
+                               " of the initial (all kinetic energy: " + percent(v.kineticFraction) + ")"
                          : "rear wall intact so far";
   }
 
@@ -292,7 +330,7 @@ PerforationVerdict assessPerforation(const ImpactModel<D>& model, const VerdictO
   // rod is still in the hole when the plug has left), else of the largest fragment behind the wall (debris).
   // Velocity components across symmetry planes cancel with the mirrored half and are dropped.
   const auto largestPiece = [&](const std::vector<std::size_t>& members) {
-    const Voxels<D> vox(P, members, model.projectileSpacing);
+    const Voxels<D> vox(P, members, model.projectileSpacing, floor);
     const int piece = vox.largest();
     double m = 0;
     Vec<D> momentum = Vec<D>::Zero();
@@ -318,9 +356,9 @@ PerforationVerdict assessPerforation(const ImpactModel<D>& model, const VerdictO
   if (measureHoles)
     for (const LayerBody& layer : model.layers) {
       const std::vector<std::size_t> intact = bodyParticles(P, layer.body, false);
-      const Voxels<D> vox(P, intact, layer.spacing);
+      const Voxels<D> vox(P, intact, layer.spacing, floor);
       LayerHole hole = holeAround(vox, vox.largest(), model, 0.5 * (layer.front + layer.rear));
-      const Voxels<D> all(P, bodyParticles(P, layer.body, true), layer.spacing);
+      const Voxels<D> all(P, bodyParticles(P, layer.body, true), layer.spacing, floor);
       const LayerHole bare = holeAround(all, all.largest(), model, 0.5 * (layer.front + layer.rear));
       hole.openingHorizontal = bare.horizontal;
       hole.openingVertical = bare.vertical;
@@ -330,7 +368,11 @@ PerforationVerdict assessPerforation(const ImpactModel<D>& model, const VerdictO
   return v;
 }
 
-template PerforationVerdict assessPerforation<2>(const ImpactModel<2>&, const VerdictOptions&, double, bool);
-template PerforationVerdict assessPerforation<3>(const ImpactModel<3>&, const VerdictOptions&, double, bool);
+template KineticReference kineticReference<2>(const ImpactModel<2>&);
+template KineticReference kineticReference<3>(const ImpactModel<3>&);
+template PerforationVerdict assessPerforation<2>(const ImpactModel<2>&, const VerdictOptions&, const KineticReference&,
+                                                 bool);
+template PerforationVerdict assessPerforation<3>(const ImpactModel<3>&, const VerdictOptions&, const KineticReference&,
+                                                 bool);
 
 }  // namespace blt::sim

@@ -68,8 +68,8 @@ struct VerdictOptions {
   // Perforated when the mass behind the rear wall reaches this share of the projectile's mass. Not lower: a few
   // stray points of failed fabric spray must not count as a perforation.
   double debrisMassFraction = 0.05;
-  // Settled without perforation once the kinetic energy of everything has fallen below this share of the
-  // initial kinetic energy.
+  // Settled without perforation once the rearward kinetic energy (verdict.hpp) has fallen below this share of
+  // its initial value.
   double settledKineticFraction = 0.02;
 };
 

@@ -10,8 +10,11 @@
 // The wall's material is the largest connected piece of it (by mass): its particles' deformed domains marked
 // on a voxel grid of the wall's particle spacing, connected through voxel faces. A plug or a spall fragment that
 // has come loose is therefore not part of the wall, wherever it is.
-// SETTLED: (a) holds (a perforation), or the kinetic energy of the whole model has fallen below
-// VerdictOptions::settledKineticFraction of the initial one with neither (a) nor (b) (a stop). A run that stops
+// SETTLED: (a) holds (a perforation), or, with neither (a) nor (b) (a stop), the REARWARD kinetic energy has
+// fallen below VerdictOptions::settledKineticFraction of its initial value: sum of m v_z^2 / 2 over the material
+// that is not behind the wall and moves towards the rear (v_z < 0). Only that material can still load the rear
+// wall; debris sliding along the plate or thrown back out of the crater (most of an oblique shot's energy, for
+// tens of microseconds) cannot, and the total kinetic energy would keep such a run going to its end time. A run that stops
 // when settled (impact.hpp) also waits, after a perforation, until the mass behind the wall and the residual
 // velocity have stopped changing between two checks. A run that ends unsettled takes the verdict of its last
 // state.
@@ -50,13 +53,23 @@ struct PerforationVerdict {
   double residualFragmentMass = 0;  // kg, whole: the projectile's piece or the fragment that gives it
   std::string residualFrom;         // "projectile" or "largest fragment" (empty when nothing came through)
   double kineticFraction = 0;     // kinetic energy / initial kinetic energy
+  double rearwardKineticFraction = 0;  // rearward kinetic energy (SETTLED above) / its initial value
   std::vector<LayerHole> holes;   // front to rear; empty unless asked for
 };
 
-// initialKinetic: the model's kinetic energy at t = 0 (J, in the model's units). measureHoles: also the hole of
-// every layer (the run's stop test leaves them out).
+// The kinetic energies the verdict compares with, taken at t = 0 (J, in the model's units: per radian in
+// axisymmetric runs, of the modelled half or quarter in 3D).
+struct KineticReference {
+  double total = 0;
+  double rearward = 0;  // of the motion towards -z: V^2 cos^2(theta) / 2 per unit mass for the projectile
+};
+
+template <int D>
+KineticReference kineticReference(const ImpactModel<D>& model);
+
+// measureHoles: also the hole of every layer (the run's stop test leaves them out).
 template <int D>
 PerforationVerdict assessPerforation(const ImpactModel<D>& model, const VerdictOptions& options,
-                                     double initialKinetic, bool measureHoles);
+                                     const KineticReference& initial, bool measureHoles);
 
 }  // namespace blt::sim
