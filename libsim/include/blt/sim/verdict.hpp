@@ -2,10 +2,11 @@
 // The perforation verdict of an impact model and the measurements that go with it.
 //
 // Definition. The rear wall (the last layer) is PERFORATED when either
-//  (a) material lies behind the wall's deformed rear surface (in a hole: behind its original rear face),
-//      separated from it by at least VerdictOptions::separationCells cells and moving rearward (or gone out of
-//      the grid through its rear face), with a mass of at least VerdictOptions::debrisMassFraction of the
-//      projectile's mass; such material has left the wall and nothing pulls it back; or
+//  (a) material lies behind the deformed rear surface of the wall's intact (not failed) material (where none is
+//      left: behind its original rear face), separated from it by at least VerdictOptions::separationCells
+//      cells and moving rearward (or gone out of the grid through its rear face), with a mass of at least
+//      VerdictOptions::debrisMassFraction of the projectile's mass; such material has left the wall and nothing
+//      pulls it back (failed material drawn out behind the wall does not hold it); or
 //  (b) the wall's material, failed points included, leaves a through-thickness opening on the shot line.
 // The wall's material is the largest connected piece of it (by mass): its particles' deformed domains marked
 // on a voxel grid of the wall's particle spacing, connected through voxel faces. A plug or a spall fragment that
@@ -14,10 +15,10 @@
 // fallen below VerdictOptions::settledKineticFraction of its initial value: sum of m v_z^2 / 2 over the material
 // that is not behind the wall and moves towards the rear (v_z < 0). Only that material can still load the rear
 // wall; debris sliding along the plate or thrown back out of the crater (most of an oblique shot's energy, for
-// tens of microseconds) cannot, and the total kinetic energy would keep such a run going to its end time. A run that stops
-// when settled (impact.hpp) also waits, after a perforation, until the mass behind the wall and the residual
-// velocity have stopped changing between two checks. A run that ends unsettled takes the verdict of its last
-// state.
+// tens of microseconds) cannot, and the total kinetic energy would keep such a run going to its end time. A run
+// that stops when settled (impact.hpp) also waits, after a perforation, until the mass behind the wall, the
+// residual velocity and every layer's hole have stopped changing between two checks. A run that ends unsettled
+// takes the verdict of its last state.
 //
 // Hole size of a layer: the opening of its intact (not failed) connected material, projected on the layer's
 // plane, around the shot line; two perpendicular extents as in seed 000 Table 5 (D_h along x, in the plane of
