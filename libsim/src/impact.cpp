@@ -49,9 +49,9 @@ ImpactResult runModel(const ImpactScenario& sc, const ImpactRunOptions& options)
   ro.frames = sc.run.frames;
   RunHooks<D> hooks;
   hooks.progress = options.progress;
-  // After a perforation the run goes on until the mass behind the wall, the residual velocity and the holes hold
-  // still between two checks (a plug leaves before the projectile; a debris cloud keeps arriving for a while).
-  // The verdicts of the checks so far (perforated ones with their holes), for the steadiness window.
+  // After a perforation the run goes on until the mass behind the wall, the residual velocity and the holes have
+  // held still over the steadiness window (a plug leaves before the projectile; a debris cloud keeps arriving for
+  // a while). The verdicts of the checks so far (perforated ones with their holes), to look back over it.
   std::vector<std::pair<double, PerforationVerdict>> checks;
   // The verdict at every check, for a plot of why a run stopped when it did (or did not).
   std::ofstream history;
