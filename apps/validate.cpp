@@ -377,8 +377,8 @@ void Report::criticalDiameters(const CriticalDiameterCase& c) {
         // The scenario's end time is for normal impact. Oblique, the debris crosses the stack at V cos(theta)
         // over a path 1/cos(theta) longer: 1/cos^2 the time. A run that settles earlier (its rearward kinetic
         // energy spent, verdict.hpp) stops there.
-        const double cos = std::cos(angle * M_PI / 180);
-        s.push_back("run.max_time=" + fmt(normalEnd / (cos * cos) * 1e6, "%.6g") + "us");
+        const double cosine = std::cos(angle * M_PI / 180);
+        s.push_back("run.max_time=" + fmt(normalEnd / (cosine * cosine) * 1e6, "%.6g") + "us");
       }
       const std::string item = fmt(vKms) + " km/s, " + fmt(angle) + " deg";
       const Limit l = ballisticLimit(log_, scenario, s, BisectVariable::diameter, c.lower,

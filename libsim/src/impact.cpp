@@ -63,8 +63,10 @@ ImpactResult runModel(const ImpactScenario& sc, const ImpactRunOptions& options)
   }
   if (sc.run.stopWhenSettled || history.is_open())
     hooks.stop = [&](const Solver<D>& s) {
-      PerforationVerdict v = assessPerforation<D>(model, sc.verdict, initialKinetic, false);
-      if (v.perforated && sc.run.stopWhenSettled) v = assessPerforation<D>(model, sc.verdict, initialKinetic, true);
+      // Holes only once perforated (the last check was): steadiness compares them, and 3D holes cost a voxel
+      // grid per layer. The first perforated check has none, so steadiness waits for the next.
+      const bool holes = sc.run.stopWhenSettled && !checks.empty() && checks.back().second.perforated;
+      const PerforationVerdict v = assessPerforation<D>(model, sc.verdict, initialKinetic, holes);
       if (history.is_open())
         history << s.time() << ',' << v.kineticFraction << ',' << v.rearwardKineticFraction << ','
                 << v.massBehindFraction << ',' << v.rearOpening << ',' << v.perforated << ',' << v.settled

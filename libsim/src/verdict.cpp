@@ -246,8 +246,10 @@ KineticReference kineticReference(const ImpactModel<D>& model) {
   const Particles<D>& P = model.solver->particles();
   KineticReference k;
   k.total = model.solver->energies().kinetic;
-  for (std::size_t p = 0; p < P.size(); ++p)
-    if (P.active[p] && P.velocity[p][D - 1] < 0) k.rearward += 0.5 * P.mass[p] * P.velocity[p][D - 1] * P.velocity[p][D - 1];
+  for (std::size_t p = 0; p < P.size(); ++p) {
+    const double vz = P.velocity[p][D - 1];
+    if (P.active[p] && vz < 0) k.rearward += 0.5 * P.mass[p] * vz * vz;
+  }
   return k;
 }
 
@@ -273,8 +275,8 @@ PerforationVerdict assessPerforation(const ImpactModel<D>& model, const VerdictO
     inWall[p] = wall.componentAt(P.position[p]) == wallPiece;
     if (inWall[p] && !P.failed[p]) intactWall.push_back(p);
   }
-  const Voxels<D> intact(P, intactWall, wallLayer.spacing, floor);
-  const std::vector<double> surface = intactWall.empty() ? std::vector<double>{} : rearSurface(intact, -1);
+  const Voxels<D> intactVoxels(P, intactWall, wallLayer.spacing, floor);
+  const std::vector<double> surface = intactWall.empty() ? std::vector<double>{} : rearSurface(intactVoxels, -1);
 
   // Material behind it: separated, moving rearward, or gone out through the grid's rear face.
   const double gridFloor = solver.grid().lower[D - 1] + h;
@@ -300,10 +302,10 @@ PerforationVerdict assessPerforation(const ImpactModel<D>& model, const VerdictO
       long col = 0, stride = 1;
       bool within = true;
       for (int a = 0; a < D - 1; ++a) {
-        const long i = static_cast<long>(std::floor((x[a] - intact.origin()[a]) / intact.pitch()));
-        within &= i >= 0 && i < intact.counts()[a];
+        const long i = static_cast<long>(std::floor((x[a] - intactVoxels.origin()[a]) / intactVoxels.pitch()));
+        within &= i >= 0 && i < intactVoxels.counts()[a];
         col += i * stride;
-        stride *= intact.counts()[a];
+        stride *= intactVoxels.counts()[a];
       }
       if (within && surface[col] < kInfinity) local = surface[col];
     }
