@@ -365,6 +365,78 @@ TEST_CASE("sim: the time step follows seed 001 Eq. 8, safety x cell / (c + |v|)"
   CHECK(solver->timeStep() == relApprox(0.25 * h / (m.referenceWaveSpeed() + c.velocity), 1e-12));
 }
 
+namespace {
+// A block of the MLI card's Mie-Grueneisen foam (seed 000 Table 4: 0.267 g/cm3, c0 = 2000 m/s, s = 1.4), at rest, with
+// one point crushed to J = 0.3: near the Hugoniot's singularity (1 - s eta = 0.02) its sound speed is huge.
+std::unique_ptr<Solver<2>> crushedFoam(bool failed, SolverOptions o) {
+  constexpr const char* card = R"toml(name = "foam"
+source = "test"
+density = "267 kg/m3"
+[elastic]
+youngs_modulus = "261 MPa"
+poisson_ratio = 0.195
+[strength]
+model = "elastic"
+[eos]
+model = "mie-grueneisen"
+c0 = "2000 m/s"
+s = 1.4
+gamma0 = 1.53
+)toml";
+  const double s = 0.1e-3, h = 2 * s;
+  GridSpec<2> g;
+  g.cellSize = h;
+  g.lower = Vec<2>(0, 0);
+  g.upper = Vec<2>(2e-3, 2e-3);
+  g.boundary = {BoundaryKind::symmetry, BoundaryKind::free, BoundaryKind::free, BoundaryKind::free};
+  auto solver = std::make_unique<Solver<2>>(g, o, std::vector<SolidMaterial>{makeSolidMaterial(blt::parseMaterial(card, "foam", "foam"))});
+  BodyFill<2> fill;
+  fill.spacing = s;
+  fillBox<2>(solver->particles(), solver->materials()[0], fill, Vec<2>(0.4e-3, 0.4e-3), Vec<2>(1.6e-3, 1.6e-3));
+  solver->initialise();
+  auto& P = solver->particles();
+  const std::size_t p = P.size() / 2;
+  P.deformationGradient[p] = std::cbrt(0.3) * Mat3::Identity();
+  P.failed[p] = failed ? 1 : 0;
+  return solver;
+}
+}  // namespace
+
+TEST_CASE("sim: a failed point crushed to a tiny time step is eroded; intact material never is") {
+  // The bound is the option's definition: a failed point whose sound speed exceeds erosionSoundSpeed x the fastest
+  // undeformed wave speed goes. The crushed point's sound speed is far above it; kept, it cuts the step below.
+  SolverOptions o;
+  o.erosionSoundSpeed = 4.0;
+  const auto limitStep = [&](const Solver<2>& s) {
+    return o.timeStepSafety * s.grid().cellSize / (o.erosionSoundSpeed * s.materials()[0].referenceWaveSpeed());
+  };
+  // The solver may reorder its particles, so the crushed point is found by its state.
+  const auto inactiveFailed = [](const Solver<2>& s) {
+    int inactive = 0, failed = 0;
+    for (std::size_t p = 0; p < s.particles().size(); ++p)
+      if (!s.particles().active[p]) ++inactive, failed += s.particles().failed[p];
+    return std::pair{inactive, failed};
+  };
+  auto failed = crushedFoam(true, o);
+  const std::size_t all = failed->activeParticles();
+  failed->step();
+  CHECK(inactiveFailed(*failed) == std::pair{1, 1});
+  CHECK(failed->timeStep() >= limitStep(*failed));
+  failed->step();
+  CHECK(failed->activeParticles() == all - 1);
+
+  auto intact = crushedFoam(false, o);
+  intact->step();
+  CHECK(inactiveFailed(*intact) == std::pair{0, 0});
+  CHECK(intact->timeStep() < 0.1 * limitStep(*intact));
+
+  o.erosionSoundSpeed = 0;  // switched off: the failed point stays and sets the step
+  auto kept = crushedFoam(true, o);
+  kept->step();
+  CHECK(inactiveFailed(*kept) == std::pair{0, 0});
+  CHECK(kept->timeStep() < 0.1 * limitStep(*kept));
+}
+
 TEST_CASE("sim: blt sim example taylor-bar writes its files and reports the shape") {
   const auto dir = freshDir("cli");
   const BltRun r = runBlt("sim example taylor-bar --particles-per-diameter 6 --end-time 20us --frames 2 --json --out '" +

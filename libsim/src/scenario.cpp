@@ -156,6 +156,7 @@ void readSolver(TomlKeys r, SolverOptions& o) {
   o.viscosity.linear = r.nonNegative("viscosity_linear", units::dimensionless, o.viscosity.linear);
   o.viscosity.quadratic = r.nonNegative("viscosity_quadratic", units::dimensionless, o.viscosity.quadratic);
   o.erosionExpansion = r.nonNegative("erosion_expansion", units::dimensionless, o.erosionExpansion);
+  o.erosionSoundSpeed = r.nonNegative("erosion_sound_speed", units::dimensionless, o.erosionSoundSpeed);
   r.finish();
 }
 

@@ -117,6 +117,7 @@ void Solver<D>::initialise() {
     dtMin = std::min(dtMin, spec_.cellSize / (c + particles_.velocity[p].norm()));
   }
   dt_ = options_.timeStepSafety * dtMin;
+  erosionSoundSpeedLimit_ = options_.erosionSoundSpeed * *std::max_element(bodyWaveSpeed_.begin(), bodyWaveSpeed_.end());
   activeCount_ = n;
   threads_ = threadCount(options_);
   parallel_ = threads_ > 1 && n >= kParallelThreshold;
@@ -653,6 +654,10 @@ void Solver<D>::updateStress() {
     if (options_.erosionExpansion > 0 && s.failed && J > options_.erosionExpansion) particles_.active[p] = 0;
     // Seed 001 Eq. 8; the viscosity stiffens the step like an extra sound speed.
     const double cEff = u.soundSpeed + (q > 0 ? 2.0 * visc.quadratic * h * std::fabs(trD) : 0.0);
+    if (s.failed && erosionSoundSpeedLimit_ > 0 && u.soundSpeed > erosionSoundSpeedLimit_) {
+      particles_.active[p] = 0;
+      continue;
+    }
     dtMin = std::min(dtMin, h / (cEff + particles_.velocity[p].norm()));
   }
   time_ += dt_;

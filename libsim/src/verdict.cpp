@@ -44,6 +44,7 @@ class Voxels {
       hi = hi.cwiseMax(P.position[p] + h);
     }
     lo = lo.cwiseMax(floor);
+    if (!(hi - lo).allFinite() || (hi - lo).minCoeff() < 0) return;  // a non-finite particle: the run is unstable
     double total = 1;
     for (int a = 0; a < D; ++a) total *= (hi[a] - lo[a]) / pitch_ + 1;
     if (total > kMaxVoxels) pitch_ *= std::pow(total / kMaxVoxels, 1.0 / D);
@@ -91,10 +92,11 @@ class Voxels {
   const Vec<D>& origin() const { return origin_; }
   const Eigen::Array<long, D, 1>& counts() const { return n_; }
   // Calls f(i, j..., label) over voxels; i the in-plane indices packed as a column number.
-  long columns() const { return count_ / n_[D - 1]; }
+  long columns() const { return count_ > 0 ? count_ / n_[D - 1] : 0; }
   template <class F>
   void forEachVoxel(F&& f) const {
     const long cols = columns();
+    if (cols == 0) return;
     for (long v = 0; v < count_; ++v) f(v % cols, v / cols, label_[v]);
   }
 
