@@ -437,6 +437,29 @@ TEST_CASE("sim: a failed point crushed to a tiny time step is eroded; intact mat
   CHECK(kept->timeStep() < 0.1 * limitStep(*kept));
 }
 
+TEST_CASE("sim: a point that drifted onto the axis of an axisymmetric run keeps a finite state") {
+  // The hoop terms divide by the radius; a centre on the axis (r = 0) gave v_r / 0 before they were bounded by the
+  // point's radial half-width.
+  const double s = 0.1e-3, h = 2 * s;
+  GridSpec<2> g;
+  g.cellSize = h;
+  g.lower = Vec<2>(0, 0);
+  g.upper = Vec<2>(2e-3, 2e-3);
+  g.boundary = {BoundaryKind::symmetry, BoundaryKind::free, BoundaryKind::free, BoundaryKind::free};
+  auto solver = std::make_unique<Solver<2>>(g, SolverOptions{}, std::vector<SolidMaterial>{
+                                                                    makeSolidMaterial(blt::parseMaterial(kElasticAluminium, "e", "e"))});
+  BodyFill<2> fill;
+  fill.spacing = s;
+  fill.velocity = Vec<2>(-5.0, 0.0);
+  fillBox<2>(solver->particles(), solver->materials()[0], fill, Vec<2>(0.0, 0.4e-3), Vec<2>(1.0e-3, 1.6e-3));
+  solver->initialise();
+  auto& P = solver->particles();
+  for (std::size_t p = 0; p < P.size(); ++p)
+    if (P.position[p][0] < s) P.position[p][0] = 0.0;
+  for (int k = 0; k < 3; ++k) solver->step();
+  CHECK(solver->firstNonFiniteParticle() == -1);
+}
+
 TEST_CASE("sim: blt sim example taylor-bar writes its files and reports the shape") {
   const auto dir = freshDir("cli");
   const BltRun r = runBlt("sim example taylor-bar --particles-per-diameter 6 --end-time 20us --frames 2 --json --out '" +

@@ -191,7 +191,10 @@ PointUpdate SolidMaterial::update(PointState& s, const Mat3& D, const Mat3& W, d
   const double eStar = s.specificEnergy + (devWork - (0.5 * pOld + q) * trD * dt) / rho;
   const double g = eos->energyCoefficient(mu);
   double pNew = (eos->coldPressure(mu) + g * density * eStar) / (1.0 + g * density * dt * trD / (2.0 * rho));
-  if (s.failed) pNew = std::max(pNew, 0.0);
+  // Failed material carries compression only; expanded past its rest density it is debris whose pieces do not
+  // push each other apart, so it carries nothing (as it gets no bulk viscosity). That keeps the Mie-Grueneisen
+  // thermal term Gamma0 rho0 e from acting across a spreading debris cloud.
+  if (s.failed) pNew = rho < density ? 0.0 : std::max(pNew, 0.0);
   s.specificEnergy = eStar - 0.5 * pNew * trD * dt / rho;
 
   if (dep > 0) {

@@ -306,7 +306,7 @@ void Solver<D>::particlesToGrid() {
     const double q = particles_.viscousPressure[p];
     // f_I = -V ((sigma - q) grad N_I), plus -V (sigma_tt - q) N_I / r on the radial component in axisymmetric
     // runs.
-    const double hoopForce = hoop ? V * (q - sig(2, 2)) / particles_.position[p][0] : 0.0;
+    const double hoopForce = hoop ? V * (q - sig(2, 2)) / hoopRadius(p) : 0.0;
     const Eigen::Matrix<double, D, D> minusVs =
         V * (q * Eigen::Matrix<double, D, D>::Identity() - sig.template topLeftCorner<D, D>());
     const Stencil<D>& st = stencil_[p];
@@ -614,11 +614,17 @@ void Solver<D>::updateStress() {
         if constexpr (D == 2) vr += rw * byWeight[0];
       });
     });
-    if (hoop) L(2, 2) = vr / particles_.position[p][0];
+    if (hoop) L(2, 2) = vr / hoopRadius(p);
 
     Mat3& F = particles_.deformationGradient[p];
     F = (Mat3::Identity() + dt * L) * F;
     const double J = F.determinant();
+    // Failed points carry no tension and, expanded, no pressure, so nothing stops their lattice from folding
+    // over in a debris cloud. One turned inside out (J <= 0) has no volume left to mean anything: it goes.
+    if (particles_.failed[p] && !(J > 0 && std::isfinite(J))) {
+      particles_.active[p] = 0;
+      continue;
+    }
     const double V = particles_.initialVolume[p] * J;
     particles_.volume[p] = V;
     const double rho = particles_.mass[p] / V;
