@@ -366,6 +366,16 @@ TEST_CASE("sim: the time step follows seed 001 Eq. 8, safety x cell / (c + |v|)"
 }
 
 namespace {
+// A 2 x 2 mm r-z grid whose left face is the axis.
+GridSpec<2> axisGrid(double cell) {
+  GridSpec<2> g;
+  g.cellSize = cell;
+  g.lower = Vec<2>(0, 0);
+  g.upper = Vec<2>(2e-3, 2e-3);
+  g.boundary = {BoundaryKind::symmetry, BoundaryKind::free, BoundaryKind::free, BoundaryKind::free};
+  return g;
+}
+
 // A block of the MLI card's Mie-Grueneisen foam (seed 000 Table 4: 0.267 g/cm3, c0 = 2000 m/s, s = 1.4), at rest, with
 // one point crushed to J = 0.3: near the Hugoniot's singularity (1 - s eta = 0.02) its sound speed is huge.
 std::unique_ptr<Solver<2>> crushedFoam(bool failed, SolverOptions o) {
@@ -383,12 +393,8 @@ c0 = "2000 m/s"
 s = 1.4
 gamma0 = 1.53
 )toml";
-  const double s = 0.1e-3, h = 2 * s;
-  GridSpec<2> g;
-  g.cellSize = h;
-  g.lower = Vec<2>(0, 0);
-  g.upper = Vec<2>(2e-3, 2e-3);
-  g.boundary = {BoundaryKind::symmetry, BoundaryKind::free, BoundaryKind::free, BoundaryKind::free};
+  const double s = 0.1e-3;
+  const GridSpec<2> g = axisGrid(2 * s);
   auto solver = std::make_unique<Solver<2>>(g, o, std::vector<SolidMaterial>{makeSolidMaterial(blt::parseMaterial(card, "foam", "foam"))});
   BodyFill<2> fill;
   fill.spacing = s;
@@ -440,12 +446,8 @@ TEST_CASE("sim: a failed point crushed to a tiny time step is eroded; intact mat
 TEST_CASE("sim: a point that drifted onto the axis of an axisymmetric run keeps a finite state") {
   // The hoop terms divide by the radius; a centre on the axis (r = 0) gave v_r / 0 before they were bounded by the
   // point's radial half-width.
-  const double s = 0.1e-3, h = 2 * s;
-  GridSpec<2> g;
-  g.cellSize = h;
-  g.lower = Vec<2>(0, 0);
-  g.upper = Vec<2>(2e-3, 2e-3);
-  g.boundary = {BoundaryKind::symmetry, BoundaryKind::free, BoundaryKind::free, BoundaryKind::free};
+  const double s = 0.1e-3;
+  const GridSpec<2> g = axisGrid(2 * s);
   auto solver = std::make_unique<Solver<2>>(g, SolverOptions{}, std::vector<SolidMaterial>{
                                                                     makeSolidMaterial(blt::parseMaterial(kElasticAluminium, "e", "e"))});
   BodyFill<2> fill;
