@@ -96,7 +96,6 @@ class Voxels {
   template <class F>
   void forEachVoxel(F&& f) const {
     const long cols = columns();
-    if (cols == 0) return;
     for (long v = 0; v < count_; ++v) f(v % cols, v / cols, label_[v]);
   }
 
