@@ -6,17 +6,19 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <vector>
 
 #include "blt/sim/run_cache.hpp"
 #include "run_blt.hpp"
 
 namespace {
 
-// The key runs.jsonl files a run under: the scenario's path, the hash of its text, the settings.
-std::string runKey(const std::string& scenario, const std::string& settings) {
+// The key runs.jsonl files a run under (RunCache::key): the scenario's path, the hash of its text, the model
+// fingerprint, the settings.
+std::string runKey(const std::string& scenario, const std::vector<std::string>& settings) {
   std::ifstream in(std::string(BLT_DATA_DIR) + "/" + scenario);
   const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  return scenario + " " + blt::sim::scenarioHash(text, {}) + " " + settings;
+  return blt::sim::RunCache::key(scenario, text, settings);
 }
 
 // A run summary with the outer-layer and plate holes given (the two layers Table 5 names).
@@ -37,13 +39,13 @@ TEST_CASE("validate: Table 5 errors are against seed 000's measured holes, runs 
     for (const char* model : {"original", "corrected"}) {
       const bool corrected = std::string(model) == "corrected";
       const std::string scenario = std::string("scenarios/fabric_al_") + model + ".toml";
-      log << nlohmann::json{{"key", runKey(scenario, "--set projectile.diameter=1.4mm --set projectile.velocity=3.02km/s "
-                                                     "--set projectile.angle=0deg")},
+      log << nlohmann::json{{"key", runKey(scenario, {"projectile.diameter=1.4mm", "projectile.velocity=3.02km/s",
+                                                     "projectile.angle=0deg"})},
                             {"summary", summary(true, corrected ? 2.0 : 4.0, 2.1)}}
                  .dump()
           << "\n";
-      log << nlohmann::json{{"key", runKey(scenario, "--set projectile.diameter=1.2mm --set projectile.velocity=4.03km/s "
-                                                     "--set projectile.angle=0deg")},
+      log << nlohmann::json{{"key", runKey(scenario, {"projectile.diameter=1.2mm", "projectile.velocity=4.03km/s",
+                                                     "projectile.angle=0deg"})},
                             {"summary", summary(true, corrected ? 1.8 : 3.6, 1.0)}}
                  .dump()
           << "\n";

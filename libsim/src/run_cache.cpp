@@ -6,6 +6,7 @@
 #include <string_view>
 
 #include "blt/core/error.hpp"
+#include "blt_model_fingerprint.hpp"
 
 namespace blt::sim {
 
@@ -35,6 +36,8 @@ std::string scenarioHash(const std::string& scenarioText, const std::vector<std:
   return hex;
 }
 
+std::string modelFingerprint() { return BLT_MODEL_FINGERPRINT; }
+
 RunCache::RunCache(std::string path) : path_(std::move(path)) {
   if (path_.empty()) return;
   std::ifstream in(path_);
@@ -48,7 +51,7 @@ RunCache::RunCache(std::string path) : path_(std::move(path)) {
 
 std::string RunCache::key(const std::string& label, const std::string& scenarioText,
                           const std::vector<std::string>& settings) {
-  std::string k = label + " " + scenarioHash(scenarioText, {});
+  std::string k = label + " " + scenarioHash(scenarioText, {}) + " model=" + modelFingerprint();
   for (const auto& s : settings) k += " --set " + s;
   return k;
 }

@@ -15,8 +15,9 @@
 // diameter (other inputs as measured) for the model's d_c, and its margin ln(d/d_c) says how far wrong it is
 // (about 4 to 6 runs a wrong case; a right case needs none, since the calibrator's outcome residual is then 0).
 //
-// Runs are kept in a run cache (blt/sim/run_cache.hpp) keyed by the scenario file's path, the hash of its text
-// and the settings, so a second calibration (or a resumed one) reruns nothing.
+// Runs are kept in a run cache (blt/sim/run_cache.hpp) keyed by the scenario file's path, the hash of its text,
+// the model fingerprint and the settings, so a second calibration (or a resumed one) with the same build reruns
+// nothing.
 
 #include <functional>
 #include <map>

@@ -4,8 +4,8 @@
 // is skipped when the file is read, so at most the run in flight is lost. Several threads may share one cache.
 // (A bisection campaign keeps its runs in its SQLite database instead: blt/campaign/database.hpp.)
 //
-// A run's key names its scenario by the hash of the scenario's text, so an edited scenario file is run again;
-// material cards and the solver itself are not in the key.
+// A run's key names its scenario by the hash of the scenario's text and the model by modelFingerprint(), so an
+// edited scenario file, an edited material card or a changed solver is run again instead of replayed.
 
 #include <cstddef>
 #include <map>
@@ -21,12 +21,18 @@ namespace blt::sim {
 // FNV-1a (64 bit, hex) of a scenario's text and the settings of a run: the identity of a run's inputs.
 std::string scenarioHash(const std::string& scenarioText, const std::vector<std::string>& settings);
 
+// 16 hex digits over the sources and material cards that decide a run's result (solver, constitutive models,
+// laminate model, units and parsing, data/materials), made at build time by cmake/model_fingerprint.cmake. Two
+// builds with the same fingerprint give the same result for the same inputs (up to thread scheduling).
+std::string modelFingerprint();
+
 class RunCache {
  public:
   // Reads the runs already in `path` (created on the first record); an empty path keeps runs in memory only.
   explicit RunCache(std::string path = {});
 
-  // "LABEL HASH --set k=v ...": LABEL names the scenario for a reader (its path), HASH is of `scenarioText`.
+  // "LABEL HASH model=FINGERPRINT --set k=v ...": LABEL names the scenario for a reader (its path), HASH is of
+  // `scenarioText`, FINGERPRINT is modelFingerprint().
   static std::string key(const std::string& label, const std::string& scenarioText,
                          const std::vector<std::string>& settings);
 
