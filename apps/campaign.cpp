@@ -178,6 +178,7 @@ void runCommand(const RunCommandOptions& o) {
                {"resolved", resolved},
                {"runs_simulated", r.simulated},
                {"runs_replayed", r.replayed},
+               {"runs_replayed_from_other_build", r.replayedFromOtherBuild},
                {"runs_failed", r.failed},
                {"runs_per_point", perPoint},
                {"wall_time_s", r.wallSeconds},
@@ -192,6 +193,11 @@ void runCommand(const RunCommandOptions& o) {
               "point; wall time %s (simulations %s)\n",
               resolved, r.points.size(), r.simulated, r.failed, r.replayed, perPoint, clock(r.wallSeconds).c_str(),
               clock(r.simulatedSeconds).c_str());
+  if (r.replayedFromOtherBuild > 0)
+    std::printf("note: %d of the replayed runs were recorded by another build of blt (its tool_version, with the model "
+                "fingerprint, differs from this one's, %s+model.%s), so this build might judge them otherwise; a new "
+                "--db reruns everything with this build\n",
+                r.replayedFromOtherBuild, BLT_VERSION, sim::modelFingerprint().c_str());
 }
 
 // ---- blt campaign status -----------------------------------------------------------------------------------------

@@ -2,7 +2,6 @@
 // file as it was, and the data fingerprint. The fits here are built by hand (no fitting is run): the store must
 // keep whatever it is given, so the comparisons are against the values put in, bit for bit.
 #include <doctest/doctest.h>
-#include <sqlite3.h>
 #include <unistd.h>
 
 #include <bit>
@@ -16,6 +15,7 @@
 
 #include "blt/ble/store.hpp"
 #include "blt/core/error.hpp"
+#include "raw_db.hpp"
 
 using namespace blt;
 using ble::BleStore;
@@ -31,31 +31,6 @@ std::string freshPath(const std::string& name) {
   for (const char* suffix : {"", "-journal", "-wal", "-shm"}) std::filesystem::remove(path + suffix);
   return path;
 }
-
-// Direct SQLite access, to inspect or prepare files independently of BleStore.
-class RawDb {
- public:
-  explicit RawDb(const std::string& path) { REQUIRE(sqlite3_open(path.c_str(), &db_) == SQLITE_OK); }
-  ~RawDb() { sqlite3_close(db_); }
-  void exec(const std::string& sql) {
-    char* err = nullptr;
-    const int rc = sqlite3_exec(db_, sql.c_str(), nullptr, nullptr, &err);
-    INFO(sql << " -> " << (err ? err : ""));
-    sqlite3_free(err);
-    REQUIRE(rc == SQLITE_OK);
-  }
-  std::int64_t integer(const std::string& sql) {
-    sqlite3_stmt* s = nullptr;
-    REQUIRE(sqlite3_prepare_v2(db_, sql.c_str(), -1, &s, nullptr) == SQLITE_OK);
-    REQUIRE(sqlite3_step(s) == SQLITE_ROW);
-    const auto v = sqlite3_column_int64(s, 0);
-    sqlite3_finalize(s);
-    return v;
-  }
-
- private:
-  sqlite3* db_ = nullptr;
-};
 
 // doctest::Contains takes doctest's own String.
 doctest::Contains contains(const std::string& text) { return doctest::Contains(text.c_str()); }

@@ -128,6 +128,7 @@ class Session {
     result.points = records_;
     result.simulated = progress_.simulated;
     result.replayed = progress_.replayed;
+    result.replayedFromOtherBuild = progress_.replayedFromOtherBuild;
     result.failed = progress_.failed;
     result.simulatedSeconds = simulatedSeconds_;
     result.wallSeconds = std::chrono::duration<double>(Clock::now() - start).count();
@@ -240,7 +241,10 @@ class Session {
       std::lock_guard lock(progressMutex_);
       ++progress_.replayed;
       ++runsSoFar_[slot];
-      report(slot, "replayed " + what + ": " + verdictText(*found));
+      const bool otherBuild = found->toolVersion != r.toolVersion;
+      progress_.replayedFromOtherBuild += otherBuild;
+      report(slot, "replayed " + what + ": " + verdictText(*found) +
+                       (otherBuild ? " (recorded by blt " + found->toolVersion + ")" : ""));
       return *found;
     }
     if (stopRequested()) throw Interrupted{};

@@ -46,6 +46,7 @@ Simulator impactSimulator(int threads);
 struct CampaignProgress {
   int pointsDone = 0, pointsTotal = 0;  // of this task
   int simulated = 0, replayed = 0, failed = 0;  // runs this session (failed: of the simulated)
+  int replayedFromOtherBuild = 0;  // of the replayed: recorded by a build with another tool_version (model fingerprint)
   double elapsedSeconds = 0;
   double etaSeconds = std::numeric_limits<double>::quiet_NaN();  // NaN until a run has been timed
   std::string event;  // what just happened, one line
@@ -64,6 +65,9 @@ struct CampaignRunOptions {
 struct CampaignRunResult {
   std::vector<PointRecord> points;  // this task's, in campaign order, as recorded
   int simulated = 0, replayed = 0, failed = 0;
+  // Of the replayed runs, those recorded by a build with another tool_version: its model fingerprint differs, so
+  // this build might give another verdict. They are reused, as a resumed campaign must; the caller says so.
+  int replayedFromOtherBuild = 0;
   double simulatedSeconds = 0;  // wall time of the simulated runs, summed
   double wallSeconds = 0;       // of the session
   bool interrupted = false;     // stopped before every point was finished
