@@ -4,8 +4,8 @@
 //
 // Every run is appended to OUT/runs.jsonl as it finishes, keyed by the scenario (its path and the hash of its
 // text, so an edited file is run again), the model fingerprint (a changed solver or material card runs again)
-// and the settings; a report started again reuses those runs, so an
-// interrupted report loses nothing and a finished one is rewritten for free.
+// and the settings; a report started again reuses those runs, so an interrupted report loses nothing and a
+// finished one is rewritten for free.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -561,7 +561,8 @@ void Report::write(double seconds) {
       << "Numeric targets met: " << met << " of " << targets << ". Errors are against the measurement where there is "
       << "one, else against the seed's simulation.\n"
       << md_.str();
-  json doc{{"tool_version", BLT_VERSION}, {"model_fingerprint", modelFingerprint()}, {"quick", o_.quick}, {"runs_made", log_.made()},
+  json doc{{"tool_version", BLT_VERSION},  {"model_fingerprint", modelFingerprint()},
+           {"quick", o_.quick},           {"runs_made", log_.made()},
            {"runs_reused", log_.reused()}, {"wall_time_s", seconds}, {"targets", targets}, {"targets_met", met},
            {"sections", sections_}};
   std::ofstream(fs::path(o_.out) / "validation.json") << doc.dump(2) << "\n";

@@ -59,8 +59,8 @@ namespace {
 // Runs cmake/model_fingerprint.cmake over `files` (paths under `root`) and returns the fingerprint it writes.
 std::string fingerprintOf(const std::filesystem::path& root, const std::vector<std::string>& files) {
   std::ostringstream command;
-  command << '"' << BLT_CMAKE_COMMAND << "\" -DROOT=" << root.string() << " -DOUT=" << (root / "fingerprint.hpp").string()
-          << " \"-DFILES=";
+  command << '"' << BLT_CMAKE_COMMAND << "\" -DROOT=" << root.string()
+          << " -DOUT=" << (root / "fingerprint.hpp").string() << " \"-DFILES=";
   for (std::size_t i = 0; i < files.size(); ++i) command << (i ? ";" : "") << (root / files[i]).string();
   command << "\" -P " << BLT_SOURCE_DIR << "/cmake/model_fingerprint.cmake";
   REQUIRE(std::system(command.str().c_str()) == 0);
