@@ -238,23 +238,21 @@ TEST_CASE("campaign: every point resolved to the tolerance with its runs recorde
   CHECK(runs[0].scenarioHash == scenarioHash(c.scenarioText, runs[0].settings));
 
   // Run again: everything replayed, nothing simulated, the same result.
-  FakeSolver again;
-  o.simulator = again.simulator();
-  const CampaignRunResult r2 = runCampaign(c, db, o);
-  CHECK(again.calls == 0);
-  CHECK(r2.replayed == 80);
-  CHECK(r2.replayedFromOtherBuild == 0);
-  CHECK(db.runs(rec->id).size() == 80);
+  const auto replayEverything = [&] {
+    FakeSolver again;
+    o.simulator = again.simulator();
+    const CampaignRunResult replay = runCampaign(c, db, o);
+    CHECK(again.calls == 0);
+    CHECK(replay.replayed == 80);
+    CHECK(db.runs(rec->id).size() == 80);
+    return replay.replayedFromOtherBuild;
+  };
+  CHECK(replayEverything() == 0);
 
   // Runs recorded by another build are still replayed (a resumed campaign repeats nothing) but counted apart.
   RawDb((dir / "runs.sqlite").string()).exec("UPDATE runs SET tool_version = '0.0.1+model.0123456789abcdef' "
                                              "WHERE id IN (SELECT id FROM runs ORDER BY id LIMIT 3)");
-  FakeSolver third;
-  o.simulator = third.simulator();
-  const CampaignRunResult r3 = runCampaign(c, db, o);
-  CHECK(third.calls == 0);
-  CHECK(r3.replayed == 80);
-  CHECK(r3.replayedFromOtherBuild == 3);
+  CHECK(replayEverything() == 3);
 
   // The exported CSV reads back as the same shots.
   const fs::path csv = dir / "runs.csv";
