@@ -195,9 +195,9 @@ void runCommand(const RunCommandOptions& o) {
               clock(r.simulatedSeconds).c_str());
   if (r.replayedFromOtherBuild > 0)
     std::printf("note: %d of the replayed runs were recorded by another build of blt (its tool_version, with the model "
-                "fingerprint, differs from this one's, %s+model.%s), so this build might judge them otherwise; a new "
+                "fingerprint, differs from this one's, %s), so this build might judge them otherwise; a new "
                 "--db reruns everything with this build\n",
-                r.replayedFromOtherBuild, BLT_VERSION, sim::modelFingerprint().c_str());
+                r.replayedFromOtherBuild, sim::buildVersion().c_str());
 }
 
 // ---- blt campaign status -----------------------------------------------------------------------------------------

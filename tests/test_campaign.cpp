@@ -233,6 +233,7 @@ TEST_CASE("campaign: every point resolved to the tolerance with its runs recorde
   const auto runs = db.runs(rec->id);
   REQUIRE(runs.size() == 80);
   CHECK(runs[0].toolVersion == std::string(BLT_VERSION) + "+model." + blt::sim::modelFingerprint());
+  CHECK(runs[0].toolVersion == blt::sim::buildVersion());
   CHECK(runs[0].measurements.value("fake", false));
   CHECK(runs[0].settings.back().rfind("projectile.diameter=", 0) == 0);
   CHECK(runs[0].scenarioHash == scenarioHash(c.scenarioText, runs[0].settings));

@@ -232,7 +232,7 @@ class Session {
     r.diameter = c_.variable == sim::BisectVariable::diameter ? value : p.diameter;
     r.velocity = c_.variable == sim::BisectVariable::velocity ? value : p.velocity;
     r.angle = p.angle;
-    r.toolVersion = std::string(BLT_VERSION) + "+model." + sim::modelFingerprint();
+    r.toolVersion = sim::buildVersion();
     const std::string what = records_[slot].label + ", " + sim::toString(c_.variable) + " " +
                              units::format(value, unit(), 5) + (finer ? " (half spacing)" : "");
     r.settings = settingsFor(p, value, finer);

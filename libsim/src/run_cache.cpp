@@ -37,6 +37,7 @@ std::string scenarioHash(const std::string& scenarioText, const std::vector<std:
 }
 
 std::string modelFingerprint() { return BLT_MODEL_FINGERPRINT; }
+std::string buildVersion() { return std::string(BLT_VERSION) + "+model." + modelFingerprint(); }
 
 RunCache::RunCache(std::string path) : path_(std::move(path)) {
   if (path_.empty()) return;

@@ -25,6 +25,8 @@ std::string scenarioHash(const std::string& scenarioText, const std::vector<std:
 // laminate model, units and parsing, data/materials), made at build time by cmake/model_fingerprint.cmake. Two
 // builds with the same fingerprint give the same result for the same inputs (up to thread scheduling).
 std::string modelFingerprint();
+// "VERSION+model.FINGERPRINT": the build a recorded run came from (a campaign database's tool_version).
+std::string buildVersion();
 
 class RunCache {
  public:
