@@ -341,6 +341,45 @@ TEST_CASE("calibrate: the solver model turns cases and effects into scenario set
   const Material weak = loadMaterial(fabricCard->substr(fabricCard->find('=') + 1));
   CHECK(weak.param("strength", "yield_stress") ==
         doctest::Approx(0.5 * sim::resolveMaterial("outer_fabric", {}).param("strength", "yield_stress")));
+  // Rate hardening: every layer with a bilinear flow curve (the outer fabric and the MLI laminate; not the elastic
+  // liner, not the Johnson-Cook plate) gets a derived card with the rate term, its stresses unchanged.
+  const auto cardOf = [](const std::vector<std::string>& settings, const std::string& key) -> std::string {
+    for (const std::string& kv : settings)
+      if (kv.rfind(key + "=", 0) == 0) return kv.substr(key.size() + 1);
+    return "";
+  };
+  const Effect& rate = findEffect(model, "rate_hardening", {});
+  CHECK(rate.description.find("(outer, mli)") != std::string::npos);
+  const auto hardened = model.settingsFor(shot, {&rate, 0.05});
+  for (const auto& [layer, material] : {std::pair<int, std::string>{1, "outer_fabric"}, {2, "laminate:mli_stack"}}) {
+    INFO(material);
+    const std::string path = cardOf(hardened, "target.layer." + std::to_string(layer) + ".material");
+    REQUIRE(!path.empty());
+    const Material derived = loadMaterial(path);
+    const Material card0 = sim::resolveMaterial(material, {});
+    CHECK(derived.section("strength").model == "bilinear");
+    CHECK(derived.param("strength", "C") == doctest::Approx(0.05));
+    CHECK(derived.param("strength", "reference_strain_rate") == doctest::Approx(1.0));
+    CHECK(derived.param("strength", "yield_stress") == doctest::Approx(card0.param("strength", "yield_stress")));
+    CHECK(derived.param("strength", "tangent_modulus") == doctest::Approx(card0.param("strength", "tangent_modulus")));
+  }
+  CHECK(cardOf(hardened, "target.layer.3.material").empty());
+  CHECK(cardOf(hardened, "target.layer.4.material").empty());
+  // Fragmentation: the projectile's failure threshold (2A12: maximum principal stress) scaled, nothing else.
+  const auto brittle = model.settingsFor(shot, {&findEffect(model, "fragmentation", {}), 0.5});
+  const std::string projectileCard = cardOf(brittle, "projectile.material");
+  REQUIRE(!projectileCard.empty());
+  const Material weaker = loadMaterial(projectileCard);
+  const Material al = sim::resolveMaterial("al_2a12", {});
+  CHECK(weaker.param("failure", "max_principal_stress") == doctest::Approx(0.5 * al.param("failure", "max_principal_stress")));
+  CHECK(weaker.param("strength", "A") == doctest::Approx(al.param("strength", "A")));
+  // Neither is offered where it has nothing to act on: the Q235 plate is Johnson-Cook and the 38CrSi
+  // projectile's card has no failure model.
+  SolverModel steel(std::string(BLT_DATA_DIR) + "/scenarios/q235_T4.toml", options);
+  for (const Effect& e : steel.effects()) {
+    CHECK(e.name != "rate_hardening");
+    CHECK(e.name != "fragmentation");
+  }
   // Data it cannot predict.
   CHECK(messageOf([&] { model.check(parse("velocity_km_s,perforated\n3,Y\n")); }).find("diameter_mm") != std::string::npos);
   const std::string layer =

@@ -235,6 +235,52 @@ TEST_CASE("radial return, bilinear hardening: von Mises = sigma_y0 + H ep") {
   CHECK(s.plasticStrain >= 0.02);
 }
 
+TEST_CASE("bilinear strength with a rate term: (sigma_y0 + H ep)(1 + C ln(rate/rate0)); none without C") {
+  const double Y0 = 300e6, Et = 7e9, C = 0.05, rate0 = 1e-2;
+  const double H = kE * Et / (kE - Et);
+  const SolidMaterial m = fromCard(card("model = \"bilinear\"\nyield_stress = \"300 MPa\"\ntangent_modulus = \"7 GPa\"\n"
+                                        "C = 0.05\nreference_strain_rate = \"0.01 1/s\""),
+                                   "bilinear_rate");
+  // The flow curve and its slope against Johnson-Cook's rate term written out.
+  const double ep = 0.1, rate = 1e3;
+  CHECK(m.strength->yieldStress(ep, rate, 293) == relApprox((Y0 + H * ep) * (1 + C * std::log(rate / rate0)), 1e-12));
+  CHECK(m.strength->hardening(ep, rate, 293) == relApprox(H * (1 + C * std::log(rate / rate0)), 1e-12));
+  // At or below the reference rate the term is 1: it hardens, never softens.
+  CHECK(m.strength->yieldStress(ep, rate0, 293) == relApprox(Y0 + H * ep, 1e-12));
+  CHECK(m.strength->yieldStress(ep, 0.0, 293) == relApprox(Y0 + H * ep, 1e-12));
+  // The radial return lands on the rate-hardened curve at the plastic rate of each step: sigma_vm =
+  // (Y0 + H ep)(1 + C ln((dep/dt) / rate0)).
+  const double dt = 1e-7;
+  const Mat3 D = pureShear(1e3);
+  PointState s = freshState(m);
+  int plasticSteps = 0;
+  for (int i = 0; i < 400 && s.plasticStrain < 0.02; ++i) {
+    const double before = s.plasticStrain;
+    m.update(s, D, kZero, dt, 0.0);
+    const double plasticRate = (s.plasticStrain - before) / dt;
+    if (before > 0 && plasticRate > rate0) {
+      ++plasticSteps;
+      CHECK(vonMises(s.stress) == relApprox((Y0 + H * s.plasticStrain) * (1 + C * std::log(plasticRate / rate0)), 1e-6));
+    }
+  }
+  CHECK(plasticSteps > 100);
+  // Without C the card's curve is the rate-independent one, bit for bit.
+  const SolidMaterial plain =
+      fromCard(card("model = \"bilinear\"\nyield_stress = \"300 MPa\"\ntangent_modulus = \"7 GPa\""), "bilinear");
+  CHECK(plain.strength->yieldStress(ep, rate, 293) == Y0 + H * ep);
+  // A reference rate that is not positive is an error naming the key.
+  std::string bad;
+  try {
+    fromCard(card("model = \"bilinear\"\nyield_stress = \"300 MPa\"\ntangent_modulus = \"7 GPa\"\nC = 0.05\n"
+                  "reference_strain_rate = \"0 1/s\""),
+             "bilinear_bad");
+  } catch (const InputError& e) {
+    bad = e.what();
+  }
+  CHECK(bad.find("strength.reference_strain_rate") != std::string::npos);
+  CHECK(bad.find("must be positive") != std::string::npos);
+}
+
 TEST_CASE("Johnson-Cook adiabatic heating: dT = chi W_p / (rho cp)") {
   const Material cardCu = MaterialLibrary::load().get("cu_ofhc");
   const SolidMaterial m = makeSolidMaterial(cardCu);

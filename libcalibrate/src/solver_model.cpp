@@ -59,6 +59,23 @@ SolverModel::SolverModel(const std::string& scenarioPath, SolverModelOptions opt
     effects_.push_back({"strength:" + layer.name,
                         "layer " + layer.name + "'s material has s times the flow stress of " + layer.material,
                         {"s", "", "strength_factor", 0.5, 2.0, 1.0}});
+  // The layers whose flow curve is bilinear: the fabric and laminate cards (seed 000 Table 4).
+  std::string fabrics;
+  for (std::size_t k = 0; k < layers; ++k)
+    if (strengthModelOf(k) == "bilinear") {
+      rateHardened_.push_back(k);
+      fabrics += (fabrics.empty() ? "" : ", ") + base_.target.layers[k].name;
+    }
+  if (!rateHardened_.empty())
+    effects_.push_back({"rate_hardening",
+                        "the fabric layers (" + fabrics + ") harden with strain rate: flow stress x (1 + C ln max(rate / " +
+                            value(kFabricReferenceRate, " 1/s", 1.0) + ", 1)), Johnson-Cook's rate term",
+                        {"C", "", "rate_coefficient", 0.0, 0.15, 0.0}});
+  if (!projectileFailureKeys().empty())
+    effects_.push_back({"fragmentation",
+                        "the projectile breaks up at f times the failure threshold of " + base_.projectile.material +
+                            " (f < 1: it fragments more easily)",
+                        {"f", "", "failure_factor", 0.25, 2.0, 1.0}});
   if (options_.cardDirectory.empty())
     options_.cardDirectory = options_.cacheFile.empty()
                                  ? (std::filesystem::temp_directory_path() / "blt_calibrate_cards").string()
@@ -119,6 +136,11 @@ std::vector<std::string> SolverModel::settingsFor(const MeasuredCase& c, const E
     } else if (e->name.rfind("strength:", 0) == 0) {
       const std::size_t k = layerIndex(e->name.substr(9));
       s.push_back("target.layer." + std::to_string(k + 1) + ".material=" + strengthCard(k, setting.value));
+    } else if (e->name == "rate_hardening") {
+      for (std::size_t k : rateHardened_)
+        s.push_back("target.layer." + std::to_string(k + 1) + ".material=" + rateHardenedCard(k, setting.value));
+    } else if (e->name == "fragmentation") {
+      s.push_back("projectile.material=" + fragmentationCard(setting.value));
     } else if (e->name == "obliquity") {
       angle += setting.value;
     }
@@ -127,9 +149,50 @@ std::vector<std::string> SolverModel::settingsFor(const MeasuredCase& c, const E
   return s;
 }
 
+Material SolverModel::layerMaterial(std::size_t k) const {
+  const auto& layer = base_.target.layers[k];
+  return sim::resolveMaterial(layer.material,
+                              InputLocation::file(path_, std::nullopt, "target.layer." + layer.name + ".material"));
+}
+
+std::string SolverModel::strengthModelOf(std::size_t k) const {
+  const Material m = layerMaterial(k);
+  return m.has("strength") ? m.sections.at("strength").model : "";
+}
+
+// The projectile card's failure thresholds that `fragmentation` scales (Johnson-Cook's D1 and D2 scale its
+// failure strain at every stress state).
+std::vector<std::string> SolverModel::projectileFailureKeys() const {
+  const Material m = sim::resolveMaterial(base_.projectile.material,
+                                          InputLocation::file(path_, std::nullopt, "projectile.material"));
+  std::vector<std::string> keys;
+  if (!m.has("failure")) return keys;
+  for (const char* key : {"max_principal_stress", "max_principal_strain", "D1", "D2"})
+    if (m.sections.at("failure").params.count(key)) keys.push_back(key);
+  return keys;
+}
+
+std::string SolverModel::writeDerivedCard(Material m, const std::string& material, const std::string& change,
+                                          double amount) const {
+  m.notes += " Derived by blt calibrate: " + change + " " + value(amount, "", 1.0) + ".";
+  std::filesystem::create_directories(options_.cardDirectory);
+  std::string id = material;
+  for (char& c : id)
+    if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
+  std::string tag = change;
+  for (char& c : tag)
+    if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
+  const std::string card =
+      (std::filesystem::path(options_.cardDirectory) / (id + "_" + tag + value(amount, "", 1.0) + ".toml")).string();
+  std::ofstream out(card);
+  if (!out) throw InputError(InputLocation::file(card), "cannot write the derived material card", "a writable card directory");
+  out << materialToToml(m);
+  return card;
+}
+
 std::string SolverModel::strengthCard(std::size_t k, double factor) const {
   const auto& layer = base_.target.layers[k];
-  Material m = sim::resolveMaterial(layer.material, InputLocation::file(path_, std::nullopt, "target.layer." + layer.name + ".material"));
+  Material m = layerMaterial(k);
   if (!m.has("strength"))
     throw InputError(InputLocation::file(path_, std::nullopt, "target.layer." + layer.name + ".material"),
                      "material " + layer.material + " has no [strength] section to scale", "a layer with a strength model");
@@ -143,16 +206,22 @@ std::string SolverModel::strengthCard(std::size_t k, double factor) const {
     throw InputError(InputLocation::file(m.path, std::nullopt, "strength"),
                      "the strength model of " + layer.material + " has none of A, B, yield_stress, tangent_modulus",
                      "a Johnson-Cook or bilinear strength model");
-  m.notes += " Derived by blt calibrate: flow stress x " + value(factor, "", 1.0) + ".";
-  std::filesystem::create_directories(options_.cardDirectory);
-  std::string id = layer.material;
-  for (char& c : id)
-    if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
-  const std::string card = (std::filesystem::path(options_.cardDirectory) / (id + "_strength_x" + value(factor, "", 1.0) + ".toml")).string();
-  std::ofstream out(card);
-  if (!out) throw InputError(InputLocation::file(card), "cannot write the derived material card", "a writable card directory");
-  out << materialToToml(m);
-  return card;
+  return writeDerivedCard(m, layer.material, "strength x", factor);
+}
+
+std::string SolverModel::rateHardenedCard(std::size_t k, double coefficient) const {
+  Material m = layerMaterial(k);
+  auto& params = m.sections["strength"].params;
+  params["C"] = coefficient;
+  params["reference_strain_rate"] = kFabricReferenceRate;
+  return writeDerivedCard(m, base_.target.layers[k].material, "rate C", coefficient);
+}
+
+std::string SolverModel::fragmentationCard(double factor) const {
+  Material m = sim::resolveMaterial(base_.projectile.material,
+                                    InputLocation::file(path_, std::nullopt, "projectile.material"));
+  for (const std::string& key : projectileFailureKeys()) m.sections["failure"].params[key] *= factor;
+  return writeDerivedCard(m, base_.projectile.material, "failure x", factor);
 }
 
 nlohmann::json SolverModel::runOrRecall(const std::vector<std::string>& settings) {

@@ -47,7 +47,13 @@ const std::vector<ModelSpec>& schema() {
         {"shear_modulus", units::pressure, "MPa"},
         {"bulk_modulus", units::pressure, "MPa"}}},
       {"strength", "elastic", {}},
-      {"strength", "bilinear", {{"yield_stress", units::pressure, "MPa"}, {"tangent_modulus", units::pressure, "MPa"}}},
+      // Optional rate hardening: the flow stress times 1 + C ln max(rate/reference_strain_rate, 1), Johnson-Cook's
+      // rate term; without C the curve is rate independent.
+      {"strength", "bilinear",
+       {{"yield_stress", units::pressure, "MPa"},
+        {"tangent_modulus", units::pressure, "MPa"},
+        {"C", units::dimensionless, ""},
+        {"reference_strain_rate", units::rate, "1/s"}}},
       {"strength", "johnson-cook", johnsonCook},
       // Borvik's modification (LS-DYNA material 107, seed 003 Eq. 18): rate term (1 + rate/reference)^C instead of
       // 1 + C ln(rate/reference); kept apart from johnson-cook because C means something else in it.

@@ -58,8 +58,12 @@ double MieGrueneisen::coldPressure(double mu) const {
 
 // ---- strength ----
 
-BilinearStrength::BilinearStrength(double yield, double youngs, double tangent)
-    : yield_(yield), h_(tangent < youngs ? youngs * tangent / (youngs - tangent) : 0.0) {}
+BilinearStrength::BilinearStrength(double yield, double youngs, double tangent, double rateCoefficient,
+                                   double referenceRate)
+    : yield_(yield),
+      h_(tangent < youngs ? youngs * tangent / (youngs - tangent) : 0.0),
+      c_(rateCoefficient),
+      rate0_(referenceRate) {}
 
 double JohnsonCookStrength::homologousTemperature(double temperature) const {
   if (p_.meltTemperature >= 1e29) return 0.0;
@@ -256,8 +260,12 @@ Registry& registry() {
       return std::make_shared<ElasticStrength>();
     };
     reg.strength["bilinear"] = [](const Material& m) -> std::shared_ptr<const StrengthModel> {
+      const double rate0 = m.has("strength", "reference_strain_rate") ? m.param("strength", "reference_strain_rate") : 1.0;
+      if (!(rate0 > 0))
+        throw InputError(cardLocation(m, "strength", "reference_strain_rate"), "must be positive", "a rate such as 1 1/s");
       return std::make_shared<BilinearStrength>(m.param("strength", "yield_stress"), youngsModulus(m),
-                                                m.param("strength", "tangent_modulus"));
+                                                m.param("strength", "tangent_modulus"),
+                                                m.has("strength", "C") ? m.param("strength", "C") : 0.0, rate0);
     };
     const auto jc = [](bool modified) {
       return [modified](const Material& m) -> std::shared_ptr<const StrengthModel> {

@@ -9,6 +9,12 @@
 //   strength:NAME     factor s in [0.5, 2] on the flow stress of layer NAME's material (Johnson-Cook A and B, or
 //                     the bilinear yield stress and tangent modulus): a derived card written to the card
 //                     directory and set as the layer's material, so libsim needs no key of its own
+//   rate_hardening    Johnson-Cook's rate term 1 + C ln max(rate / 1 1/s, 1), C in [0, 0.15], on every layer whose
+//                     flow curve is bilinear (the fabric and laminate cards, whose constants come from
+//                     quasi-static tensile tests: seed 000 Table 4); only offered when the target has such a layer
+//   fragmentation     factor f in [0.25, 2] on the projectile's failure thresholds (maximum principal stress or
+//                     strain, Johnson-Cook D1 and D2): f < 1 breaks it up more easily; only offered when its card
+//                     has one of them
 //   obliquity         an angle error in [0, 15 deg] added to every case's angle; not in the default list, since
 //                     a non-normal impact is a 3D half model (minutes a run): name it in --effects
 // Outcomes: by default right or wrong. With `outcomeMargin`, a case the model gets wrong is bisected on the
@@ -65,7 +71,19 @@ class SolverModel : public Model {
 
  private:
   std::size_t layerIndex(const std::string& label) const;  // npos when not a layer
-  std::string strengthCard(std::size_t layer, double factor) const;  // path of the derived card
+  // Derived material cards, written to the card directory; each returns the card's path.
+  std::string strengthCard(std::size_t layer, double factor) const;
+  std::string rateHardenedCard(std::size_t layer, double coefficient) const;
+  std::string fragmentationCard(double factor) const;
+  std::string writeDerivedCard(Material m, const std::string& material, const std::string& change,
+                               double amount) const;
+  Material layerMaterial(std::size_t layer) const;
+  std::string strengthModelOf(std::size_t layer) const;  // "" when the card has no [strength]
+  std::vector<std::string> projectileFailureKeys() const;
+
+  // The reference rate of rate_hardening, 1/s: the cards do not say at which rate their tensile tests were made,
+  // so Johnson-Cook's usual 1 1/s.
+  static constexpr double kFabricReferenceRate = 1.0;
   nlohmann::json runOrRecall(const std::vector<std::string>& settings);
   // ln(d/d_c) of the model for case c under `setting`, from the run at the measured diameter (`atMeasured`).
   double margin(const MeasuredCase& c, const EffectSetting& setting, bool perforatedAtMeasured);
@@ -75,6 +93,7 @@ class SolverModel : public Model {
   SolverModelOptions options_;
   sim::ImpactScenario base_;
   std::vector<Effect> effects_;
+  std::vector<std::size_t> rateHardened_;  // the layers rate_hardening acts on
   std::unique_ptr<sim::RunCache> cache_;
   std::mutex mutex_;
   int runsMade_ = 0;

@@ -5,6 +5,7 @@
 // is a combination of three parts, not a class of its own. Models register by the `model` name used in the
 // material cards (data/materials/README.md), so a new model is one class and one registration line.
 
+#include <cmath>
 #include <functional>
 #include <memory>
 #include <string>
@@ -91,15 +92,21 @@ class ElasticStrength final : public StrengthModel {
   double hardening(double, double, double) const override { return 0; }
 };
 
-// sigma_y = sigma_y0 + H ep with the plastic modulus H = E Et / (E - Et) from the tangent modulus Et.
+// sigma_y = (sigma_y0 + H ep) (1 + C ln max(rate/rate0, 1)) with the plastic modulus H = E Et / (E - Et) from the
+// tangent modulus Et. The rate term is Johnson-Cook's (seed 000 Eq. 9); C = 0 (the default) leaves the curve rate
+// independent, as the quasi-static tensile tests of the fabric cards (seed 000 Table 4) give it.
 class BilinearStrength final : public StrengthModel {
  public:
-  BilinearStrength(double yield, double youngs, double tangent);
-  double yieldStress(double ep, double, double) const override { return yield_ + h_ * ep; }
-  double hardening(double, double, double) const override { return h_; }
+  BilinearStrength(double yield, double youngs, double tangent, double rateCoefficient = 0.0,
+                   double referenceRate = 1.0);
+  double yieldStress(double ep, double rate, double) const override { return (yield_ + h_ * ep) * rateFactor(rate); }
+  double hardening(double, double rate, double) const override { return h_ * rateFactor(rate); }
 
  private:
-  double yield_, h_;
+  double rateFactor(double rate) const {
+    return c_ != 0.0 && rate > rate0_ ? 1.0 + c_ * std::log(rate / rate0_) : 1.0;
+  }
+  double yield_, h_, c_, rate0_;
 };
 
 // Johnson-Cook, seed 000 Eq. 9: (A + B ep^n)(1 + C ln max(rate/rate0, 1))(1 - T*^m), T* clamped to [0, 1].
