@@ -56,8 +56,8 @@ void registerCalibrateCommand(CLI::App& app) {
       "DATA.csv: columns case, diameter_mm, velocity_km_s (or velocity_m_s, impact_velocity_m_s), angle_deg,\n"
       "and whichever were measured: perforated, residual_velocity_m_s, layer + hole_h_mm + hole_v_mm.\n"
       "Base model: --scenario FILE (the MPM solver; effects interlayer_gaps, gap:LAYER, thickness:LAYER,\n"
-      "strength:LAYER, rate_hardening (the fabric layers), fragmentation (the projectile), obliquity (3D runs:\n"
-      "only when named)) or --model recht-ipson|lambert-jonas with\n"
+      "strength:LAYER, rate_hardening (the fabric layers), fragmentation (the projectile); obliquity and, for\n"
+      "cylinders, yaw are 3D runs and run only when named) or --model recht-ipson|lambert-jonas with\n"
       "--a, --p, --v-bl (effects plug_mass_ratio,\n"
       "strength_scale, exponent).\n"
       "Examples:\n"
@@ -151,7 +151,7 @@ void registerCalibrateCommand(CLI::App& app) {
       model = std::make_unique<cal::SolverModel>(s->scenario, so);
       if (options.effects.empty())
         for (const auto& e : model->effects())
-          if (e.name != "obliquity") options.effects.push_back(e.name);
+          if (!cal::turnsRunsThreeD(e.name)) options.effects.push_back(e.name);
     }
 
     const cal::CalibrationResult result = cal::calibrate(*model, data, options);

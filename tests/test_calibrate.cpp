@@ -380,6 +380,14 @@ TEST_CASE("calibrate: the solver model turns cases and effects into scenario set
     CHECK(e.name != "rate_hardening");
     CHECK(e.name != "fragmentation");
   }
+  // Yaw turns a cylinder's axis off its flight path; a sphere has none to turn. Like obliquity it makes every
+  // run 3D, so it runs only when named.
+  const auto yawed = steel.settingsFor(shot, {&findEffect(steel, "yaw", {}), 5 * std::numbers::pi / 180});
+  CHECK(has(yawed, "projectile.yaw=5deg"));
+  CHECK(std::none_of(model.effects().begin(), model.effects().end(), [](const Effect& e) { return e.name == "yaw"; }));
+  CHECK(turnsRunsThreeD("yaw"));
+  CHECK(turnsRunsThreeD("obliquity"));
+  CHECK_FALSE(turnsRunsThreeD("rate_hardening"));
   // Data it cannot predict.
   CHECK(messageOf([&] { model.check(parse("velocity_km_s,perforated\n3,Y\n")); }).find("diameter_mm") != std::string::npos);
   const std::string layer =

@@ -85,6 +85,55 @@ TEST_CASE("scenario: settings change any key; layers by number or by name") {
   CHECK(bool(set.resolvedMode() == ModelMode::threeD));
 }
 
+TEST_CASE("impact model: a yawed cylinder lies along its tilted axis and flies along the shot line") {
+  // Reference: the geometry asked for. A flat cylinder of r = 0.5 mm, L = 3 mm at normal incidence with 30 deg of
+  // yaw has its axis at 30 deg from the normal in the x-z plane, moves along -z, and has the cylinder's mass,
+  // rho pi r^2 L, halved by the symmetry plane y = 0 (no plane x = 0 now: the body is not symmetric about it).
+  const ImpactScenario sc = parseScenario(plateScenario(), "plate.toml",
+                                          {"projectile.shape=cylinder", "projectile.length=3mm", "projectile.yaw=30deg"});
+  CHECK(std::string(toString(sc.resolvedMode())) == "3d");
+  const ImpactModel<3> m = buildImpactModel<3>(sc, 1);
+  CHECK_FALSE(m.mirrorX);
+  const double r = 0.5e-3, L = 3e-3;
+  CHECK(m.projectileMass == relApprox(2770 * M_PI * r * r * L / 2, 1e-6));
+  const auto& P = m.solver->particles();
+  // The axis from the covariance of the particles' x and z (the y extent, 0 to r, is far shorter than L).
+  double n = 0, mx = 0, mz = 0;
+  for (std::size_t p = 0; p < P.size(); ++p)
+    if (P.body[p] == 0) n += 1, mx += P.position[p][0], mz += P.position[p][2];
+  mx /= n, mz /= n;
+  double sxx = 0, szz = 0, sxz = 0;
+  for (std::size_t p = 0; p < P.size(); ++p)
+    if (P.body[p] == 0) {
+      const double dx = P.position[p][0] - mx, dz = P.position[p][2] - mz;
+      sxx += dx * dx, szz += dz * dz, sxz += dx * dz;
+      CHECK(P.velocity[p][0] == 0.0);
+      CHECK(P.velocity[p][2] == relApprox(-3000.0, 1e-12));
+    }
+  // Principal direction of [[sxx, sxz], [sxz, szz]]: angle phi from the z axis with tan(2 phi) = 2 sxz / (szz - sxx);
+  // the axis goes towards +x as it goes towards -z, so sxz < 0.
+  const double tilt = 0.5 * std::atan2(-2 * sxz, szz - sxx);
+  CHECK(tilt * 180 / M_PI == doctest::Approx(30.0).epsilon(0.02));
+  // The shot line through the centre of mass still meets the front face at the origin, along the normal.
+  CHECK(std::fabs(m.shotLineAt(0.0)[0]) < 1e-12);
+  CHECK(m.direction[2] == -1.0);
+  // Spheres have no yaw; a yawed body has no axisymmetric model.
+  CHECK(contains(messageOf([] { parseScenario(plateScenario(), "plate.toml", {"projectile.yaw=5deg"}); }),
+                 "a sphere has no axis to yaw"));
+  CHECK(contains(messageOf([] {
+                   parseScenario(plateScenario(), "plate.toml",
+                                 {"projectile.shape=cylinder", "projectile.length=3mm", "projectile.yaw=5deg",
+                                  "run.mode=axisymmetric"});
+                 }),
+                 "yawed projectile cannot run axisymmetric"));
+  CHECK(contains(messageOf([] {
+                   parseScenario(plateScenario(), "plate.toml",
+                                 {"projectile.shape=cylinder", "projectile.length=3mm", "projectile.angle=60deg",
+                                  "projectile.yaw=30deg"});
+                 }),
+                 "projectile.yaw"));
+}
+
 TEST_CASE("scenario: a bad key or value is an error naming the file, line or flag, and the key") {
   const std::string unknownKey = messageOf([] { parseScenario(plateScenario("frame = 3\n"), "plate.toml"); });
   CHECK(contains(unknownKey, "plate.toml"));

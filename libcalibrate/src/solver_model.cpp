@@ -82,8 +82,15 @@ SolverModel::SolverModel(const std::string& scenarioPath, SolverModelOptions opt
                                  : (std::filesystem::path(options_.cacheFile).parent_path() / "cards").string();
   effects_.push_back({"obliquity", "every shot is delta degrees more oblique than recorded (3D runs)",
                       {"delta", "deg", "angle_error_rad", 0.0, 15 * deg, 0.0}});
+  if (base_.projectile.shape == sim::ProjectileShape::cylinder)
+    effects_.push_back({"yaw",
+                        "every shot has psi degrees more yaw than recorded: the projectile's axis turned off its flight "
+                        "path, in the plane of incidence (3D runs)",
+                        {"psi", "deg", "yaw_rad", 0.0, 10 * deg, 0.0}});
   cache_ = std::make_unique<sim::RunCache>(options_.cacheFile);
 }
+
+bool turnsRunsThreeD(const std::string& effect) { return effect == "obliquity" || effect == "yaw"; }
 
 std::string SolverModel::describe() const {
   std::string s = "scenario " + path_;
@@ -143,6 +150,8 @@ std::vector<std::string> SolverModel::settingsFor(const MeasuredCase& c, const E
       s.push_back("projectile.material=" + fragmentationCard(setting.value));
     } else if (e->name == "obliquity") {
       angle += setting.value;
+    } else if (e->name == "yaw") {
+      s.push_back("projectile.yaw=" + value(base_.projectile.yaw + setting.value, "deg", 180 / std::numbers::pi));
     }
   }
   s.push_back("projectile.angle=" + value(angle, "deg", 180 / std::numbers::pi));

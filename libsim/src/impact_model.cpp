@@ -73,16 +73,23 @@ ImpactModel<D> buildImpactModel(const ImpactScenario& sc, int threads) {
   const ProjectileSpec& pj = sc.projectile;
   const double h = sc.cellSize();
   const double theta = pj.angle;
+  const double tilt = pj.angle + pj.yaw;  // of the projectile's axis from the target normal
   const bool axisymmetric = D == 2;
+  Vec<D> axis;  // the projectile's axis, nose forward
   if constexpr (D == 3) {
     m.direction = Vec<D>(std::sin(theta), 0.0, -std::cos(theta));
+    axis = Vec<D>(std::sin(tilt), 0.0, -std::cos(tilt));
     m.mirrorY = true;
-    m.mirrorX = std::fabs(theta) < 1e-12;
+    m.mirrorX = std::fabs(theta) < 1e-12 && std::fabs(pj.yaw) < 1e-12;
   } else {
     if (std::fabs(theta) > 1e-12)
       throw InputError(InputLocation::file(sc.path, std::nullopt, "projectile.angle"),
                        "an axisymmetric model needs a normal impact", "angle = \"0 deg\", or run.mode = \"3d\"");
+    if (std::fabs(pj.yaw) > 1e-12)
+      throw InputError(InputLocation::file(sc.path, std::nullopt, "projectile.yaw"),
+                       "an axisymmetric model needs a projectile without yaw", "yaw = \"0 deg\", or run.mode = \"3d\"");
     m.direction = Vec<D>(0.0, -1.0);
+    axis = m.direction;
   }
   m.modelledFraction = axisymmetric ? 1.0 / (2.0 * M_PI) : (m.mirrorX ? 0.25 : 0.5);
   m.projectileDiameter = pj.diameter;
@@ -112,7 +119,7 @@ ImpactModel<D> buildImpactModel(const ImpactScenario& sc, int threads) {
   const double length = pj.shape == ProjectileShape::sphere ? pj.diameter : pj.length;
   const double projectileHeight = pj.shape == ProjectileShape::sphere
                                       ? pj.diameter
-                                      : length * std::cos(theta) + pj.diameter * std::sin(theta);
+                                      : length * std::cos(tilt) + pj.diameter * std::sin(std::fabs(tilt));
   const double behind = std::max(20.0 * h, 2.0 * pj.diameter);
   GridSpec<D> grid;
   grid.cellSize = h;
@@ -157,8 +164,8 @@ ImpactModel<D> buildImpactModel(const ImpactScenario& sc, int threads) {
     m.layers.push_back(lb);
   }
 
-  // Projectile: filled around the origin (sphere: its centre; cylinder: its nose tip, body behind along
-  // -direction) on a lattice symmetric about the symmetry planes, then moved to one cell in front of the target.
+  // Projectile: filled around the origin (sphere: its centre; cylinder: its nose tip, body behind along -axis)
+  // on a lattice symmetric about the symmetry planes, then moved to one cell in front of the target.
   BodyFill<D> fill;
   fill.material = projectileMaterial;
   fill.body = 0;
@@ -169,11 +176,10 @@ ImpactModel<D> buildImpactModel(const ImpactScenario& sc, int threads) {
   Vec<D> lower = Vec<D>::Constant(-reach), upper = Vec<D>::Constant(reach);
   if (axisymmetric || m.mirrorX) lower[0] = 0.0;
   if (D == 3) lower[1] = 0.0;
-  const Vec<D> dir = m.direction;
   const auto inside = [&](const Vec<D>& x) {
     if (pj.shape == ProjectileShape::sphere) return x.squaredNorm() <= radius * radius;
-    const double u = -x.dot(dir);  // distance behind the tip along the axis
-    const double rho = (x + u * dir).norm();
+    const double u = -x.dot(axis);  // distance behind the tip along the axis
+    const double rho = (x + u * axis).norm();
     return rho <= profileRadius(pj, u);
   };
   const std::size_t begin = P.size();

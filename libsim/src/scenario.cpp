@@ -42,7 +42,8 @@ double TargetSpec::totalDepth() const {
 
 ModelMode ImpactScenario::resolvedMode() const {
   if (run.mode != ModelMode::automatic) return run.mode;
-  return std::fabs(projectile.angle) < 1e-9 ? ModelMode::axisymmetric : ModelMode::threeD;
+  return std::fabs(projectile.angle) < 1e-9 && std::fabs(projectile.yaw) < 1e-9 ? ModelMode::axisymmetric
+                                                                                 : ModelMode::threeD;
 }
 double ImpactScenario::projectileSpacing() const {
   return projectile.spacing > 0 ? projectile.spacing : resolution.particleSpacing;
@@ -70,6 +71,12 @@ void readProjectile(TomlKeys r, ProjectileSpec& p) {
   if (p.angle >= 0.5 * M_PI - 1e-9)
     throw InputError(r.at("angle"), "the angle from the target normal must be below 90 deg", "0 deg to 89 deg");
   p.spacing = r.positive("spacing", units::length, 0);
+  p.yaw = r.quantity("yaw", units::angle, 0);
+  if (p.yaw != 0 && p.shape == ProjectileShape::sphere)
+    throw InputError(r.at("yaw"), "a sphere has no axis to yaw", "yaw = \"0 deg\", or shape = \"cylinder\"");
+  if (!(std::fabs(p.angle + p.yaw) < 0.5 * M_PI - 1e-9))
+    throw InputError(r.at("yaw"), "the axis would lie in the target plane or beyond (angle + yaw at 90 deg or more)",
+                     "|angle + yaw| below 90 deg");
   if (p.shape == ProjectileShape::cylinder) {
     p.length = r.positive("length", units::length, 0, true);
     p.nose = r.choice<NoseShape>("nose", {{"flat", NoseShape::flat}, {"hemispherical", NoseShape::hemispherical},
@@ -247,6 +254,9 @@ ImpactScenario parseScenario(const std::string& text, const std::string& sourceN
   if (sc.run.mode == ModelMode::axisymmetric && sc.projectile.angle > 1e-9)
     throw InputError(r.at("run"), "an oblique impact cannot run axisymmetric",
                      "mode = \"3d\" or \"auto\", or projectile.angle = \"0 deg\"");
+  if (sc.run.mode == ModelMode::axisymmetric && std::fabs(sc.projectile.yaw) > 1e-9)
+    throw InputError(r.at("run"), "a yawed projectile cannot run axisymmetric",
+                     "mode = \"3d\" or \"auto\", or projectile.yaw = \"0 deg\"");
   const double h = sc.cellSize();
   if (sc.projectileSpacing() > h)
     throw InputError(InputLocation::file(sourceName, std::nullopt, "projectile.spacing"),

@@ -17,6 +17,9 @@
 //                     has one of them
 //   obliquity         an angle error in [0, 15 deg] added to every case's angle; not in the default list, since
 //                     a non-normal impact is a 3D half model (minutes a run): name it in --effects
+//   yaw               a yaw psi in [0, 10 deg] added to every shot: the axis of a cylindrical projectile turned off
+//                     its flight path in the plane of incidence; offered for cylinders only, and like obliquity a
+//                     3D run, so only when named
 // Outcomes: by default right or wrong. With `outcomeMargin`, a case the model gets wrong is bisected on the
 // diameter (other inputs as measured) for the model's d_c, and its margin ln(d/d_c) says how far wrong it is
 // (about 4 to 6 runs a wrong case; a right case needs none, since the calibrator's outcome residual is then 0).
@@ -51,6 +54,9 @@ struct SolverModelOptions {
   int marginSteps = 6;                // at most this many factors of 1.25 searched for the other side
   std::function<void(const std::string&)> log;  // told each run as it ends
 };
+
+// Whether an effect makes every run a 3D half model (obliquity, yaw): such effects are run only when named.
+bool turnsRunsThreeD(const std::string& effect);
 
 class SolverModel : public Model {
  public:

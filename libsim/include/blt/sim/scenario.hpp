@@ -36,6 +36,9 @@ struct ProjectileSpec {
   std::string material;              // library id, a card path, or "laminate:STACK" (see resolveMaterial)
   double velocity = 0;               // m/s
   double angle = 0;                  // rad, from the target normal, in the plane of incidence (x, z)
+  // rad, cylinder only: the axis's angle from the flight path, in the plane of incidence; the axis makes
+  // angle + yaw with the target normal (positive: the nose turned further from the normal).
+  double yaw = 0;
   double spacing = 0;                // m, particle spacing; 0: resolution.particle_spacing
 };
 
