@@ -134,6 +134,26 @@ TEST_CASE("impact model: a yawed cylinder lies along its tilted axis and flies a
                  "projectile.yaw"));
 }
 
+TEST_CASE("impact model: a grid offset moves the nodes along the normal and leaves the bodies where they are") {
+  // Reference: the definition of resolution.grid_offset, f of a cell: node 0 lies f h further back, every
+  // particle of the model has the same position, volume and mass.
+  const ImpactScenario plain = parseScenario(plateScenario(), "plate.toml");
+  const ImpactScenario shifted = parseScenario(plateScenario(), "plate.toml", {"resolution.grid_offset=0.5"});
+  const ImpactModel<2> a = buildImpactModel<2>(plain, 1), b = buildImpactModel<2>(shifted, 1);
+  const double h = plain.cellSize();
+  CHECK(b.solver->grid().lower[1] == relApprox(a.solver->grid().lower[1] - 0.5 * h, 1e-12));
+  CHECK(b.solver->grid().lower[0] == a.solver->grid().lower[0]);  // the axis stays a node line
+  const auto &pa = a.solver->particles(), &pb = b.solver->particles();
+  REQUIRE(pa.size() == pb.size());
+  for (std::size_t p = 0; p < pa.size(); ++p) {
+    CHECK(pb.position[p][0] == pa.position[p][0]);
+    CHECK(pb.position[p][1] == pa.position[p][1]);
+    CHECK(pb.mass[p] == pa.mass[p]);
+  }
+  CHECK(contains(messageOf([] { parseScenario(plateScenario(), "plate.toml", {"resolution.grid_offset=1"}); }),
+                 "fraction of a cell"));
+}
+
 TEST_CASE("scenario: a bad key or value is an error naming the file, line or flag, and the key") {
   const std::string unknownKey = messageOf([] { parseScenario(plateScenario("frame = 3\n"), "plate.toml"); });
   CHECK(contains(unknownKey, "plate.toml"));
@@ -414,5 +434,17 @@ TEST_CASE("blt sim run and blt sim bisect from the command line") {
   const auto bis = nlohmann::json::parse(b.output.substr(b.output.find('{')));
   CHECK(bis["runs"].size() == bis["run_count"]);
   CHECK(bis.contains("largest_not_perforating_mm"));
+
+  // An ensemble over grid offsets: one run per offset, and the count is of those runs' own verdicts.
+  const BltRun e = runBlt("sim run '" + file.string() + "' --ensemble 2 --json --threads 1");
+  REQUIRE(e.status == 0);
+  const auto ens = nlohmann::json::parse(e.output.substr(e.output.find('{')));
+  REQUIRE(ens["runs"].size() == 2);
+  CHECK(ens["grid_offsets"] == nlohmann::json::array({0.0, 0.5}));
+  int perforated = 0;
+  for (const auto& run : ens["runs"]) perforated += run["perforated"].get<bool>();
+  CHECK(ens["perforated_count"] == perforated);
+  CHECK(ens["perforated_fraction"].get<double>() == doctest::Approx(perforated / 2.0));
+  CHECK(contains(runBlt("sim run '" + file.string() + "' --ensemble 0").output, "--ensemble"));
   fs::remove(file);
 }

@@ -120,7 +120,7 @@ ImpactModel<D> buildImpactModel(const ImpactScenario& sc, int threads) {
   const double projectileHeight = pj.shape == ProjectileShape::sphere
                                       ? pj.diameter
                                       : length * std::cos(tilt) + pj.diameter * std::sin(std::fabs(tilt));
-  const double behind = std::max(20.0 * h, 2.0 * pj.diameter);
+  const double behind = std::max(20.0 * h, 2.0 * pj.diameter) + sc.resolution.gridOffset * h;
   GridSpec<D> grid;
   grid.cellSize = h;
   const BoundaryKind edge = sc.target.edge;

@@ -128,6 +128,9 @@ void readTarget(TomlKeys r, TargetSpec& t) {
 void readResolution(TomlKeys r, ResolutionSpec& s) {
   s.particleSpacing = r.positive("particle_spacing", units::length, 0, true);
   s.cellSize = r.positive("cell_size", units::length, 0);
+  s.gridOffset = r.nonNegative("grid_offset", units::dimensionless, 0);
+  if (!(s.gridOffset < 1))
+    throw InputError(r.at("grid_offset"), "the grid offset is a fraction of a cell", "0 to below 1");
   r.finish();
 }
 

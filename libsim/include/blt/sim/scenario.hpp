@@ -61,6 +61,10 @@ struct TargetSpec {
 struct ResolutionSpec {
   double particleSpacing = 0;  // m, default spacing of every part
   double cellSize = 0;         // m; 0: twice the particle spacing (seed 000 sec. 5.1: 0.1 mm and 0.2 mm)
+  // Shift of the grid along the target normal, as a fraction of a cell in [0, 1): the same physical model on
+  // another alignment of nodes and particles. Runs at several offsets show how much of a verdict near the
+  // ballistic limit is discretisation (blt sim run --ensemble).
+  double gridOffset = 0;
 };
 
 // The perforation verdict (verdict.hpp) reads these.
