@@ -55,9 +55,11 @@ ImpactRunOptions runOptions(const ScenarioOptions& o) {
 
 void describeScenario(const ImpactScenario& sc) {
   const ProjectileSpec& p = sc.projectile;
-  std::fprintf(stderr, "%s: %s, %.4g mm %s %s at %s, %.4g deg; %zu layers; to %.4g us\n", sc.name.c_str(),
+  char yaw[48] = "";
+  if (p.yaw != 0) std::snprintf(yaw, sizeof yaw, ", yaw %.4g deg", p.yaw * 180 / M_PI);
+  std::fprintf(stderr, "%s: %s, %.4g mm %s %s at %s, %.4g deg%s; %zu layers; to %.4g us\n", sc.name.c_str(),
                toString(sc.resolvedMode()), p.diameter * 1e3, p.material.c_str(), toString(p.shape),
-               units::format(p.velocity, p.velocity >= 1000 ? "km/s" : "m/s", 4).c_str(), p.angle * 180 / M_PI,
+               units::format(p.velocity, p.velocity >= 1000 ? "km/s" : "m/s", 4).c_str(), p.angle * 180 / M_PI, yaw,
                sc.target.layers.size(), sc.run.maxTime * 1e6);
 }
 
