@@ -31,7 +31,7 @@ TEST_CASE("material library: every card in data/materials loads") {
   const std::vector<std::string> expected = {
       "al_2024",   "al_2a12", "al_2a12_seed001", "al_5083_h116", "al_5a06",    "al_5a06_seed001",
       "al_7075_t651", "al_zl102", "cu_ofhc",   "cu_ofhc_za", "liner",       "mli_layer",    "outer_fabric", "q235",
-      "sic_b",     "steel_1006", "steel_38crsi", "steel_4340",   "water",      "weldox_460e"};
+      "q235_jc",   "sic_b",     "steel_1006", "steel_38crsi", "steel_4340",   "water",      "weldox_460e"};
   CHECK(lib.ids() == expected);
   for (const auto& id : lib.ids()) {
     const Material& m = lib.get(id);

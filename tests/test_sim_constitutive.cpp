@@ -139,6 +139,12 @@ TEST_CASE("JohnsonCookStrength: 2A12 card against the formula; melt and low rate
   const double qHand = (229e6 + 439e6 * std::pow(0.05, 0.503)) * std::pow(1 + 10.0 / 1.1e-3, 0.1) *
                        (1 - std::pow((500.0 - 300.0) / (1795.0 - 300.0), 0.55));
   CHECK(q.johnsonCook->yieldStress(0.05, 10.0, 500.0) == relApprox(qHand, 1e-12));
+  // The same constants read with the classic rate term (card q235_jc): 1 + C ln(rate/rate0).
+  const SolidMaterial qc = makeSolidMaterial(MaterialLibrary::load().get("q235_jc"));
+  REQUIRE(qc.johnsonCook);
+  const double qcHand = (229e6 + 439e6 * std::pow(0.05, 0.503)) * (1 + 0.1 * std::log(10.0 / 1.1e-3)) *
+                        (1 - std::pow((500.0 - 300.0) / (1795.0 - 300.0), 0.55));
+  CHECK(qc.johnsonCook->yieldStress(0.05, 10.0, 500.0) == relApprox(qcHand, 1e-12));
 }
 
 TEST_CASE("ZerilliArmstrongFccStrength: cu_ofhc_za card against the formula; low rate; room temperature") {
