@@ -71,7 +71,7 @@ SolverModel::SolverModel(const std::string& scenarioPath, SolverModelOptions opt
                         "the fabric layers (" + fabrics + ") harden with strain rate: flow stress x (1 + C ln max(rate / " +
                             value(kFabricReferenceRate, " 1/s", 1.0) + ", 1)), Johnson-Cook's rate term",
                         {"C", "", "rate_coefficient", 0.0, 0.15, 0.0}});
-  if (!projectileFailureKeys().empty())
+  if (!failureKeys(projectileMaterial()).empty())
     effects_.push_back({"fragmentation",
                         "the projectile breaks up at f times the failure threshold of " + base_.projectile.material +
                             " (f < 1: it fragments more easily)",
@@ -158,6 +158,10 @@ std::vector<std::string> SolverModel::settingsFor(const MeasuredCase& c, const E
   return s;
 }
 
+Material SolverModel::projectileMaterial() const {
+  return sim::resolveMaterial(base_.projectile.material, InputLocation::file(path_, std::nullopt, "projectile.material"));
+}
+
 Material SolverModel::layerMaterial(std::size_t k) const {
   const auto& layer = base_.target.layers[k];
   return sim::resolveMaterial(layer.material,
@@ -171,9 +175,7 @@ std::string SolverModel::strengthModelOf(std::size_t k) const {
 
 // The projectile card's failure thresholds that `fragmentation` scales (Johnson-Cook's D1 and D2 scale its
 // failure strain at every stress state).
-std::vector<std::string> SolverModel::projectileFailureKeys() const {
-  const Material m = sim::resolveMaterial(base_.projectile.material,
-                                          InputLocation::file(path_, std::nullopt, "projectile.material"));
+std::vector<std::string> SolverModel::failureKeys(const Material& m) {
   std::vector<std::string> keys;
   if (!m.has("failure")) return keys;
   for (const char* key : {"max_principal_stress", "max_principal_strain", "D1", "D2"})
@@ -185,14 +187,14 @@ std::string SolverModel::writeDerivedCard(Material m, const std::string& materia
                                           double amount) const {
   m.notes += " Derived by blt calibrate: " + change + " " + value(amount, "", 1.0) + ".";
   std::filesystem::create_directories(options_.cardDirectory);
-  std::string id = material;
-  for (char& c : id)
-    if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
-  std::string tag = change;
-  for (char& c : tag)
-    if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
-  const std::string card =
-      (std::filesystem::path(options_.cardDirectory) / (id + "_" + tag + value(amount, "", 1.0) + ".toml")).string();
+  const auto fileNamePart = [](std::string text) {
+    for (char& c : text)
+      if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
+    return text;
+  };
+  const std::string card = (std::filesystem::path(options_.cardDirectory) /
+                            (fileNamePart(material) + "_" + fileNamePart(change) + value(amount, "", 1.0) + ".toml"))
+                               .string();
   std::ofstream out(card);
   if (!out) throw InputError(InputLocation::file(card), "cannot write the derived material card", "a writable card directory");
   out << materialToToml(m);
@@ -227,9 +229,8 @@ std::string SolverModel::rateHardenedCard(std::size_t k, double coefficient) con
 }
 
 std::string SolverModel::fragmentationCard(double factor) const {
-  Material m = sim::resolveMaterial(base_.projectile.material,
-                                    InputLocation::file(path_, std::nullopt, "projectile.material"));
-  for (const std::string& key : projectileFailureKeys()) m.sections["failure"].params[key] *= factor;
+  Material m = projectileMaterial();
+  for (const std::string& key : failureKeys(m)) m.sections["failure"].params[key] *= factor;
   return writeDerivedCard(m, base_.projectile.material, "failure x", factor);
 }
 

@@ -71,9 +71,8 @@ double JohnsonCookStrength::homologousTemperature(double temperature) const {
 }
 
 double JohnsonCookStrength::rateFactor(double rate) const {
-  const double r = rate / p_.referenceRate;
-  if (p_.modified) return std::pow(1.0 + r, p_.C);
-  return r > 1.0 ? 1.0 + p_.C * std::log(r) : 1.0;
+  if (p_.modified) return std::pow(1.0 + rate / p_.referenceRate, p_.C);
+  return johnsonCookRateFactor(rate, p_.C, p_.referenceRate);
 }
 
 double JohnsonCookStrength::thermalFactor(double temperature) const {

@@ -83,9 +83,11 @@ class SolverModel : public Model {
   std::string fragmentationCard(double factor) const;
   std::string writeDerivedCard(Material m, const std::string& material, const std::string& change,
                                double amount) const;
+  Material projectileMaterial() const;
   Material layerMaterial(std::size_t layer) const;
   std::string strengthModelOf(std::size_t layer) const;  // "" when the card has no [strength]
-  std::vector<std::string> projectileFailureKeys() const;
+  // The failure thresholds of a card that `fragmentation` scales.
+  static std::vector<std::string> failureKeys(const Material& m);
 
   // The reference rate of rate_hardening, 1/s: the cards do not say at which rate their tensile tests were made,
   // so Johnson-Cook's usual 1 1/s.

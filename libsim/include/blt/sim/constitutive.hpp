@@ -85,6 +85,13 @@ class StrengthModel {
   virtual double hardening(double plasticStrain, double rate, double temperature) const = 0;
 };
 
+// Johnson-Cook's rate term 1 + C ln(rate/rate0) for rates above rate0, else 1 (seed 000 Eq. 9); shared by the
+// Johnson-Cook and the bilinear models. C = 0 gives exactly 1.
+inline double johnsonCookRateFactor(double rate, double coefficient, double referenceRate) {
+  const double r = rate / referenceRate;
+  return coefficient != 0.0 && r > 1.0 ? 1.0 + coefficient * std::log(r) : 1.0;
+}
+
 class ElasticStrength final : public StrengthModel {
  public:
   bool plastic() const override { return false; }
@@ -103,9 +110,7 @@ class BilinearStrength final : public StrengthModel {
   double hardening(double, double rate, double) const override { return h_ * rateFactor(rate); }
 
  private:
-  double rateFactor(double rate) const {
-    return c_ != 0.0 && rate > rate0_ ? 1.0 + c_ * std::log(rate / rate0_) : 1.0;
-  }
+  double rateFactor(double rate) const { return johnsonCookRateFactor(rate, c_, rate0_); }
   double yield_, h_, c_, rate0_;
 };
 
