@@ -69,7 +69,8 @@ void registerCalibrateCommand(CLI::App& app) {
   struct State {
     std::string measured, scenario, model, report, cache;
     std::vector<std::string> effects, settings;
-    std::string aText = "1", pText = "2", folds = "0", grid = "0", refine = "-1", minImprovement = "0.1", minT = "2";
+    std::string aText = "1", pText = "2", folds = "0", grid = "0", refine = "-1", minImprovement = "0.1", minT = "2",
+                pairedOver = "observations";
     std::string jobs = "1", threads = "1";
     double ballisticLimit = 0;
     bool json = false, outcomeMargin = false;
@@ -105,8 +106,12 @@ void registerCalibrateCommand(CLI::App& app) {
   cmd->add_option("--min-improvement", s->minImprovement,
                   "least relative fall of the held-out error to accept an effect (default 0.1)")
       ->type_name("FRACTION");
-  cmd->add_option("--min-t", s->minT, "least t statistic of the per-case held-out improvement (default 2)")
+  cmd->add_option("--min-t", s->minT, "least t statistic of the paired held-out improvement (default 2)")
       ->type_name("NUMBER");
+  cmd->add_option("--paired-over", s->pairedOver,
+                  "units of that t: observations (each outcome, velocity, hole extent; default) or cases (stricter: "
+                  "a shot's observations count once)")
+      ->type_name("observations|cases");
   addJsonFlag(*cmd, s->json);
 
   cmd->callback([s, vblOpt] {
@@ -120,6 +125,11 @@ void registerCalibrateCommand(CLI::App& app) {
     options.refineSteps = s->refine == "-1" ? -1 : static_cast<int>(positiveNumber(s->refine, "--refine", true));
     options.minRelativeImprovement = positiveNumber(s->minImprovement, "--min-improvement", true);
     options.minTStatistic = positiveNumber(s->minT, "--min-t", true);
+    const auto paired = cal::parsePairedUnit(s->pairedOver);
+    if (!paired)
+      throw InputError(InputLocation::flag("--paired-over"), "unknown unit '" + s->pairedOver + "'",
+                       "observations or cases");
+    options.pairedOver = *paired;
     if (options.folds == 1)
       throw InputError(InputLocation::flag("--folds"), "one fold holds nothing out", "0 (automatic) or 2 and more");
 

@@ -219,6 +219,84 @@ TEST_CASE("calibrate: when two effects explain the data equally, the second is r
   fs::remove_all(dir);
 }
 
+namespace {
+// Seed 000's shape of data (data/calibrate/seed000_measured.csv): 13 outcomes, hole sizes on 2 shots only (two
+// layers, two extents each). The stand-in gets every outcome right and predicts each hole as `trueHole` times
+// (1 + 1.5 (1 - s)); the effect's s in [0, 1] shrinks it, s = 1 the truth: seed 000's original model, whose holes
+// were 2.5 times the measured ones until the gaps went in.
+constexpr double trueHole = 2e-3;  // m
+
+class OverpredictedHoleModel : public Model {
+ public:
+  std::string describe() const override { return "overpredicted-hole stand-in"; }
+  const std::vector<Effect>& effects() const override { return effects_; }
+  void check(const MeasuredData&) const override {}
+  std::vector<Prediction> predict(const MeasuredData& data, const std::vector<std::size_t>& cases,
+                                  const EffectSetting& setting) override {
+    const double s = setting.effect ? setting.value : 0.0;
+    const double hole = trueHole * (1 + 1.5 * (1 - s));
+    std::vector<Prediction> out;
+    for (std::size_t c : cases) {
+      Prediction p;
+      p.perforated = data.cases[c].id.back() == 'p';
+      p.holes = {{"outer", {hole, hole}}, {"plate", {hole, hole}}};
+      out.push_back(p);
+    }
+    return out;
+  }
+  int suggestedGridPoints() const override { return 21; }
+  int suggestedRefineSteps() const override { return 20; }
+
+ private:
+  std::vector<Effect> effects_{{"shrink", "holes shrink", {"s", "", "shrink", 0, 1, 0}}};
+};
+
+// Holes measured at trueHole x (1 + 1.5 (1 - s)) with relative scatter `scatter`.
+MeasuredData holesOnTwoShots(double s, double scatter, uint32_t seed) {
+  SeededGaussian gauss(seed);
+  std::ostringstream csv;
+  csv << "case,diameter_mm,velocity_km_s,angle_deg,perforated,layer,hole_h_mm,hole_v_mm\n";
+  for (int k = 0; k < 13; ++k) csv << "c" << k << (k % 2 ? "p" : "s") << ",1.0,4.0,0," << k % 2 << ",,,\n";
+  const double hole = 1e3 * trueHole * (1 + 1.5 * (1 - s));
+  for (const char* id : {"c3p", "c5p"})
+    for (const char* layer : {"outer", "plate"})
+      csv << id << ",1.0,4.0,0,," << layer << "," << hole * (1 + scatter * gauss()) << ","
+          << hole * (1 + scatter * gauss()) << "\n";
+  return parse(csv.str());
+}
+}  // namespace
+
+TEST_CASE("calibrate: holes measured on 2 of 13 shots: the paired test over observations accepts, over cases it cannot") {
+  const MeasuredData data = holesOnTwoShots(1.0, 0.05, 7);
+  REQUIRE(data.cases.size() == 13);
+  REQUIRE(data.observations.size() == 13 + 8);
+  OverpredictedHoleModel model;
+  const CalibrationResult byObservation = blt::calibrate::calibrate(model, data);
+  REQUIRE(byObservation.winningFit() != nullptr);
+  CHECK(byObservation.winningFit()->parameter == doctest::Approx(1.0).epsilon(0.05));
+  CHECK(byObservation.winningFit()->relativeImprovement > 0.9);
+  CHECK(toJson(byObservation, data)["rule"]["paired_over"] == "observations");
+
+  // Over cases the 11 shots without holes have d_c = 0: with two near-equal gains among 13 values,
+  // t = mean / (sd / sqrt(13)) is about 1.48 whatever the gains are, below 2.
+  CalibrationOptions overCases;
+  overCases.pairedOver = PairedUnit::cases;
+  const CalibrationResult byCase = blt::calibrate::calibrate(model, data, overCases);
+  CHECK(byCase.winningFit() == nullptr);
+  REQUIRE(byCase.ranking.size() == 1);
+  CHECK(byCase.ranking[0].relativeImprovement > 0.9);
+  CHECK(byCase.ranking[0].tStatistic == doctest::Approx(1.48).epsilon(0.03));
+}
+
+TEST_CASE("calibrate: holes on 2 of 13 shots made by the base with scatter only give no effect found over observations") {
+  OverpredictedHoleModel model;
+  for (uint32_t seed = 1; seed <= 20; ++seed) {
+    CAPTURE(seed);
+    const CalibrationResult r = blt::calibrate::calibrate(model, holesOnTwoShots(0.0, 0.05, seed));
+    CHECK(r.winningFit() == nullptr);
+  }
+}
+
 TEST_CASE("calibrate: data from the base model with scatter only give no effect found") {
   for (uint32_t seed : {1u, 2u, 3u, 4u, 5u}) {
     CAPTURE(seed);
@@ -502,6 +580,13 @@ TEST_CASE("calibrate: the command line names the effect in text and JSON and say
   const BltRun badEffect = runBlt("calibrate --measured '" + data + "' --model recht-ipson --v-bl 133.8m/s --effects gaps --report '" + dir + "'");
   CHECK(badEffect.status == 2);
   CHECK(badEffect.output.find("exponent") != std::string::npos);
+  const BltRun badUnit = runBlt("calibrate --measured '" + data + "' --model recht-ipson --v-bl 133.8m/s --paired-over shots --report '" + dir + "'");
+  CHECK(badUnit.status == 2);
+  CHECK(badUnit.output.find("--paired-over") != std::string::npos);
+  CHECK(badUnit.output.find("observations or cases") != std::string::npos);
+  const BltRun byCase = runBlt("calibrate --measured '" + data + "' --model recht-ipson --a 1 --v-bl 133.8m/s --paired-over cases --report '" + dir + "' --json");
+  REQUIRE(byCase.status == 0);
+  CHECK(nlohmann::json::parse(byCase.output)["rule"]["paired_over"] == "cases");
   fs::remove_all(dir);
 }
 

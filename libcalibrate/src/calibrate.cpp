@@ -10,6 +10,14 @@
 
 namespace blt::calibrate {
 
+const char* toString(PairedUnit u) { return u == PairedUnit::cases ? "cases" : "observations"; }
+
+std::optional<PairedUnit> parsePairedUnit(const std::string& name) {
+  if (name == "observations") return PairedUnit::observations;
+  if (name == "cases") return PairedUnit::cases;
+  return std::nullopt;
+}
+
 const char* toString(ErrorGroup g) {
   switch (g) {
     case ErrorGroup::outcome: return "outcome";
@@ -86,7 +94,8 @@ std::vector<std::vector<std::size_t>> rowsByCase(const MeasuredData& data) {
 
 // Each case's share of E^2 over the case set `cases`, given a prediction per case (indexed by case).
 struct CaseErrors {
-  std::vector<double> share;  // per case in `cases`, in order; they sum to E^2
+  std::vector<double> share;             // per case in `cases`, in order; they sum to E^2
+  std::vector<double> observationShare;  // per observation of those cases, case by case; they sum to E^2 too
   double combined() const { return std::sqrt(std::accumulate(share.begin(), share.end(), 0.0)); }
 };
 
@@ -103,11 +112,26 @@ CaseErrors caseErrors(const MeasuredData& data, const Yardstick& yard, const std
       const Observation& o = data.observations[r];
       const ErrorGroup g = groupOf(o.kind);
       const double z = residualOf(o, *predictionOfCase[c]) / yard.scale.at(g);
-      s += z * z / (count[g] * groups);
+      const double part = z * z / (count[g] * groups);
+      out.observationShare.push_back(part);
+      s += part;
     }
     out.share.push_back(s);
   }
   return out;
+}
+
+// t = mean / (sd / sqrt(n)) of the paired differences before - after; inf when they are all equal and positive.
+double pairedTStatistic(const std::vector<double>& before, const std::vector<double>& after) {
+  const std::size_t n = before.size();
+  if (n < 2) return 0.0;
+  std::vector<double> d(n);
+  for (std::size_t i = 0; i < n; ++i) d[i] = before[i] - after[i];
+  const double mean = std::accumulate(d.begin(), d.end(), 0.0) / n;
+  double var = 0;
+  for (double v : d) var += (v - mean) * (v - mean);
+  var /= (n - 1);
+  return var > 0 ? mean / std::sqrt(var / n) : (mean > 0 ? std::numeric_limits<double>::infinity() : 0.0);
 }
 
 ErrorSummary summarise(const MeasuredData& data, const Yardstick& yard, const std::vector<Prediction>& predictions) {
@@ -311,14 +335,10 @@ CalibrationResult calibrate(Model& model, const MeasuredData& data, const Calibr
     fit.heldoutError = heldout.combined();
     fit.relativeImprovement = result.before.combined > 0 ? 1 - fit.heldoutError / result.before.combined : 0.0;
 
-    std::vector<double> d(n);
-    for (std::size_t c = 0; c < n; ++c) d[c] = baseShares.share[c] - heldout.share[c];
-    const double mean = std::accumulate(d.begin(), d.end(), 0.0) / n;
-    double var = 0;
-    for (double v : d) var += (v - mean) * (v - mean);
-    var /= (n - 1);
-    fit.tStatistic = var > 0 ? mean / std::sqrt(var / n)
-                             : (mean > 0 ? std::numeric_limits<double>::infinity() : 0.0);
+    const bool overCases = options.pairedOver == PairedUnit::cases;
+    const std::vector<double>& before = overCases ? baseShares.share : baseShares.observationShare;
+    const std::vector<double>& after = overCases ? heldout.share : heldout.observationShare;
+    fit.tStatistic = pairedTStatistic(before, after);
     fit.evaluations = memo.evaluations();
 
     const bool enough = fit.relativeImprovement >= options.minRelativeImprovement;
@@ -423,7 +443,10 @@ nlohmann::json toJson(const CalibrationResult& r, const MeasuredData& data) {
       {"errors_before", errorsJson(r.before)},
       {"errors_after", errorsJson(w ? w->fitted : r.before)},
       {"residual_features", features},
-      {"rule", {{"min_relative_improvement", r.options.minRelativeImprovement}, {"min_t_statistic", r.options.minTStatistic}}},
+      {"rule",
+       {{"min_relative_improvement", r.options.minRelativeImprovement},
+        {"min_t_statistic", r.options.minTStatistic},
+        {"paired_over", toString(r.options.pairedOver)}}},
       {"ranking", ranking},
       {"predictions_before", predictionsJson(data, r.basePredictions)},
       {"predictions_after", predictionsJson(data, w ? w->predictions : r.basePredictions)}};

@@ -140,8 +140,9 @@ std::vector<std::string> writeReport(const std::string& directory, const Calibra
         "(outcomes, residual velocities, hole sizes) is scaled (outcomes by 1, the others by the RMS of their "
         "measured values) and E = sqrt(mean over groups of the mean squared scaled residual).\n\n";
   md << "An effect is accepted when its held-out error is at least " << num(100 * r.options.minRelativeImprovement)
-     << " % below the base's and the per-case paired improvement has t = mean/(sd/sqrt(n)) >= "
-     << num(r.options.minTStatistic) << ". The accepted effect with the lowest held-out error wins.\n\n";
+     << " % below the base's and the paired improvement over " << toString(r.options.pairedOver)
+     << " (each one's share of E^2, base minus held out) has t = mean/(sd/sqrt(n)) >= " << num(r.options.minTStatistic)
+     << ". The accepted effect with the lowest held-out error wins.\n\n";
 
   md << "## Diagnosis: base residuals against the cases' features\n\n";
   if (r.features.empty()) md << "No feature varies over the cases.\n\n";
