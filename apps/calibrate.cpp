@@ -115,8 +115,8 @@ void registerCalibrateCommand(CLI::App& app) {
   addJsonFlag(*cmd, s->json);
 
   cmd->callback([s, vblOpt] {
-    if (s->scenario.empty() == s->model.empty())
-      throw InputError(InputLocation::flag("--scenario"), "no base model given",
+    if (!s->scenario.empty() && !s->model.empty())
+      throw InputError(InputLocation::flag("--scenario"), "two base models given (--scenario and --model)",
                        "--scenario FILE (solver) or --model recht-ipson|lambert-jonas with --v-bl");
     cal::CalibrationOptions options;
     options.effects = s->effects;
@@ -134,6 +134,10 @@ void registerCalibrateCommand(CLI::App& app) {
       throw InputError(InputLocation::flag("--folds"), "one fold holds nothing out", "0 (automatic) or 2 and more");
 
     const cal::MeasuredData data = cal::readMeasuredData(s->measured);
+    if (s->scenario.empty() && s->model.empty() && !data.hasScenarios)
+      throw InputError(InputLocation::flag("--scenario"), "no base model given",
+                       "--scenario FILE (solver), a scenario column in " + s->measured +
+                           ", or --model recht-ipson|lambert-jonas with --v-bl");
     std::unique_ptr<cal::Model> model;
     if (!s->model.empty()) {
       const auto kind = analytic::parseModelName(s->model);
@@ -158,7 +162,7 @@ void registerCalibrateCommand(CLI::App& app) {
       std::filesystem::create_directories(std::filesystem::path(so.cacheFile).parent_path().empty()
                                               ? std::filesystem::path(".")
                                               : std::filesystem::path(so.cacheFile).parent_path());
-      model = std::make_unique<cal::SolverModel>(s->scenario, so);
+      model = std::make_unique<cal::SolverModel>(s->scenario, so, cal::scenariosNamedBy(data));
       if (options.effects.empty())
         for (const auto& e : model->effects())
           if (!cal::turnsRunsThreeD(e.name)) options.effects.push_back(e.name);

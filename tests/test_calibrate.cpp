@@ -475,6 +475,119 @@ TEST_CASE("calibrate: the solver model turns cases and effects into scenario set
   fs::remove_all(options.cardDirectory);
 }
 
+TEST_CASE("calibrate: shots on several targets run on their own scenarios, with one strength effect per material") {
+  // Seed 003's shape of data: residual velocities on the T4 and T2T2 plates (seed003_residual_velocities.csv,
+  // Fig. 6 and Fig. 8), each shot naming its scenario; the diameter comes from the scenario.
+  const fs::path dir = tempDir("targets");
+  fs::create_directories(dir);
+  fs::copy_file(std::string(BLT_DATA_DIR) + "/scenarios/q235_T4.toml", dir / "q235_T4.toml",
+                fs::copy_options::overwrite_existing);
+  const std::string t2t2 = std::string(BLT_DATA_DIR) + "/scenarios/q235_T2T2.toml";
+  {
+    std::ofstream csv(dir / "measured.csv");
+    csv << "case,scenario,impact_velocity_m_s,residual_velocity_m_s\n"
+        << "fig6,q235_T4.toml,138.89,55.35\n"
+        << "fig8," << t2t2 << ",139.13,71.76\n";
+  }
+  const MeasuredData data = readMeasuredData((dir / "measured.csv").string());
+  CHECK(data.hasScenarios);
+  CHECK_FALSE(data.hasDiameters);
+  CHECK(data.cases[0].scenario == (dir / "q235_T4.toml").lexically_normal().string());
+  CHECK(scenariosNamedBy(data).size() == 2);
+
+  SolverModelOptions options;
+  options.cardDirectory = (dir / "cards").string();
+  SolverModel model("", options, scenariosNamedBy(data));
+  model.check(data);
+  CHECK(model.describe().find("scenarios ") == 0);
+  const auto named = [&](const std::string& name) {
+    return std::any_of(model.effects().begin(), model.effects().end(), [&](const Effect& e) { return e.name == name; });
+  };
+  CHECK(named("material_strength:q235"));
+  CHECK_FALSE(named("thickness:plate"));  // T4 has one layer, T2T2 two: no layer-named effect fits both
+  CHECK_FALSE(named("interlayer_gaps"));
+  CHECK(named("yaw"));  // both projectiles are cylinders
+
+  const auto stronger = [&](std::size_t c) {
+    return model.settingsFor(data.cases[c], {&findEffect(model, "material_strength:q235", {}), 0.8});
+  };
+  const auto t4 = stronger(0), plates = stronger(1);
+  CHECK(std::find(t4.begin(), t4.end(), "projectile.diameter=12.62mm") != t4.end());
+  CHECK(std::find(t4.begin(), t4.end(), "projectile.velocity=138.89m/s") != t4.end());
+  const auto cards = [](const std::vector<std::string>& settings) {
+    std::vector<std::string> out;
+    for (const std::string& kv : settings)
+      if (kv.find(".material=") != std::string::npos) out.push_back(kv);
+    return out;
+  };
+  REQUIRE(cards(t4).size() == 1);
+  REQUIRE(cards(plates).size() == 2);  // both T2 plates, one card
+  CHECK(cards(plates)[0].substr(cards(plates)[0].find('=')) == cards(plates)[1].substr(cards(plates)[1].find('=')));
+  const std::string card = cards(t4)[0].substr(cards(t4)[0].find('=') + 1);
+  CHECK(loadMaterial(card).param("strength", "A") ==
+        doctest::Approx(0.8 * sim::resolveMaterial("q235", {}).param("strength", "A")));
+
+  // The shipped file: seed 003's six experiments (seed003_residual_velocities.csv, method = experiment) on four targets.
+  const MeasuredData seed003 = readMeasuredData(std::string(BLT_DATA_DIR) + "/calibrate/seed003_measured.csv");
+  CHECK(seed003.cases.size() == 6);
+  CHECK(scenariosNamedBy(seed003).size() == 4);
+  SolverModel(std::string(), options, scenariosNamedBy(seed003)).check(seed003);
+
+  // A case on a scenario the model was not given, a missing scenario file, a case without any scenario.
+  SolverModel onlyT4("", options, {(dir / "q235_T4.toml").string()});
+  CHECK(messageOf([&] { onlyT4.check(data); }).find("q235_T2T2.toml is not one the model was given") != std::string::npos);
+  {
+    std::ofstream csv(dir / "missing.csv");
+    csv << "scenario,impact_velocity_m_s,residual_velocity_m_s\nno_such.toml,138.89,55.35\n";
+  }
+  const std::string missing = messageOf([&] { readMeasuredData((dir / "missing.csv").string()); });
+  CHECK(missing.find("missing.csv") != std::string::npos);
+  CHECK(missing.find("no scenario file") != std::string::npos);
+  CHECK(missing.find("scenario") != std::string::npos);
+  {
+    std::ofstream csv(dir / "partly.csv");
+    csv << "scenario,diameter_mm,impact_velocity_m_s,residual_velocity_m_s\nq235_T4.toml,,138.89,55.35\n,12.62,139.13,71.76\n";
+  }
+  const MeasuredData partly = readMeasuredData((dir / "partly.csv").string());
+  CHECK(messageOf([&] { model.check(partly); }).find("names no scenario and no --scenario was given") != std::string::npos);
+  SolverModel withDefault(t2t2, options, scenariosNamedBy(partly));
+  withDefault.check(partly);
+  const auto onDefault = withDefault.settingsFor(partly.cases[1], {});
+  CHECK(std::find(onDefault.begin(), onDefault.end(), "projectile.velocity=139.13m/s") != onDefault.end());
+  fs::remove_all(dir);
+}
+
+TEST_CASE("calibrate: each shot is run on its own scenario, and layer effects stay when the targets share their layers") {
+  const std::string dir = tempDir("two_targets");
+  const std::string original = std::string(BLT_DATA_DIR) + "/scenarios/fabric_al_original.toml";
+  const std::string corrected = std::string(BLT_DATA_DIR) + "/scenarios/fabric_al_corrected.toml";
+  SolverModelOptions options;
+  options.settings = {"resolution.particle_spacing=0.2mm", "resolution.cell_size=0.4mm"};  // coarse, cheap
+  options.cacheFile = dir + "/runs.jsonl";
+  // The same shot (seed 000 Table 1 case 05) on both coatings.
+  const MeasuredData data = parse("case,scenario,diameter_mm,velocity_km_s,layer,hole_h_mm\n"
+                                  "a," + original + ",1.2,4.03,outer,1.8\nb," + corrected + ",1.2,4.03,outer,1.8\n");
+  std::vector<Prediction> both;
+  {
+    SolverModel model("", options, scenariosNamedBy(data));
+    CHECK(std::any_of(model.effects().begin(), model.effects().end(),
+                      [](const Effect& e) { return e.name == "interlayer_gaps"; }));
+    both = model.predict(data, {0, 1}, {});
+    CHECK(model.runsMade() == 2);
+  }
+  // Each scenario on its own finds its run in the cache: the runs were keyed, and made, on the case's scenario.
+  const MeasuredData shot = parse("diameter_mm,velocity_km_s,layer,hole_h_mm\n1.2,4.03,outer,1.8\n");
+  for (const auto& [path, k] : {std::pair{original, 0}, std::pair{corrected, 1}}) {
+    SolverModel single(path, options);
+    const Prediction p = single.predict(shot, {0}, {})[0];
+    CHECK(single.runsMade() == 0);
+    CHECK(p.holes.at(0).second.first == both[k].holes.at(0).second.first);
+  }
+  // The gaps of the corrected coating shrink the outer hole (seed 000 Table 5), so the two runs differ.
+  CHECK(both[1].holes.at(0).second.first < both[0].holes.at(0).second.first);
+  fs::remove_all(dir);
+}
+
 TEST_CASE("calibrate: solver runs are kept in the run cache and not made again") {
   const std::string dir = tempDir("cache");
   const std::string scenario = std::string(BLT_DATA_DIR) + "/scenarios/fabric_al_original.toml";

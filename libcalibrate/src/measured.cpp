@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <map>
 #include <numbers>
 #include <optional>
@@ -73,6 +74,7 @@ MeasuredData measuredDataFromTable(const csv::Table& t) {
     throw InputError(fileAt.withField("velocity_km_s"), "the impact velocity column is missing",
                      "one of velocity_km_s, velocity_m_s, impact_velocity_m_s");
   const auto caseCol = optionalColumn(t, "case");
+  const auto scenarioCol = optionalColumn(t, "scenario");
   const auto diameterCol = optionalColumn(t, "diameter_mm");
   const auto angleCol = optionalColumn(t, "angle_deg");
   const auto perforatedCol = optionalColumn(t, "perforated");
@@ -87,6 +89,7 @@ MeasuredData measuredDataFromTable(const csv::Table& t) {
     throw InputError(fileAt, "the file measures nothing",
                      "at least one of the columns perforated, residual_velocity_m_s, hole_h_mm, hole_v_mm");
   data.hasDiameters = diameterCol.has_value();
+  data.hasScenarios = scenarioCol.has_value();
 
   std::map<std::string, size_t> caseById;
   for (size_t row = 0; row < t.rowCount(); ++row) {
@@ -97,7 +100,16 @@ MeasuredData measuredDataFromTable(const csv::Table& t) {
     if (!(c.velocity > 0))
       throw InputError(t.where(row, *velocityCol), "the impact velocity " + t.text(row, *velocityCol) + " is not positive",
                        "a velocity above 0");
-    if (diameterCol) {
+    if (scenarioCol && !t.text(row, *scenarioCol).empty()) {
+      namespace fs = std::filesystem;
+      const fs::path written = t.text(row, *scenarioCol);
+      const fs::path path = written.is_absolute() ? written : fs::path(t.source()).parent_path() / written;
+      if (!fs::is_regular_file(path))
+        throw InputError(t.where(row, *scenarioCol), "no scenario file " + path.string(),
+                         "a scenario file's path, relative to the measured file's folder");
+      c.scenario = path.lexically_normal().string();
+    }
+    if (diameterCol && !(scenarioCol && t.text(row, *diameterCol).empty())) {
       c.diameter = t.quantity(row, *diameterCol, "mm");
       if (!(c.diameter > 0))
         throw InputError(t.where(row, *diameterCol), "the diameter " + t.text(row, *diameterCol) + " is not positive",
@@ -123,11 +135,12 @@ MeasuredData measuredDataFromTable(const csv::Table& t) {
       const char* field = differs(first.velocity, c.velocity)   ? t.header()[*velocityCol].c_str()
                           : differs(first.diameter, c.diameter) ? "diameter_mm"
                           : differs(first.angle, c.angle)       ? "angle_deg"
+                          : first.scenario != c.scenario        ? "scenario"
                                                                 : nullptr;
       if (field)
         throw InputError(InputLocation::file(t.source(), c.line, field),
                          "case '" + c.id + "' has a different " + field + " than on line " + std::to_string(first.line),
-                         "the same diameter, velocity and angle on every row of one case");
+                         "the same scenario, diameter, velocity and angle on every row of one case");
     }
 
     bool measuredSomething = false;

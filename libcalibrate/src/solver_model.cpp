@@ -1,5 +1,6 @@
 #include "blt/calibrate/solver_model.hpp"
 
+#include <algorithm>
 #include <atomic>
 #include <cctype>
 #include <cmath>
@@ -33,47 +34,99 @@ std::string fileContents(const std::string& path) {
 
 }  // namespace
 
-SolverModel::SolverModel(const std::string& scenarioPath, SolverModelOptions options)
-    : path_(scenarioPath), options_(std::move(options)) {
-  base_ = sim::loadScenario(path_, options_.settings);
+SolverModel::Target SolverModel::loadTarget(const std::string& path) const {
+  Target t;
+  t.path = path;
+  t.base = sim::loadScenario(path, options_.settings);
   // The text is part of the cache key: an edited scenario must not reuse old runs.
-  label_ = std::filesystem::absolute(path_).lexically_normal().string();
-  text_ = fileContents(path_);
-  const std::size_t layers = base_.target.layers.size();
-  constexpr double mm = 1e-3, deg = std::numbers::pi / 180;
-  if (layers >= 3)
-    effects_.push_back({"interlayer_gaps",
-                        "a gap g between every two layers in front of the rear wall (gap_before += g for layers 2 to " +
-                            std::to_string(layers - 1) + ")",
-                        {"g", "mm", "gap_m", 0.0, 3 * mm, 0.0}});
-  for (std::size_t k = 1; k < layers; ++k) {
-    const std::string& name = base_.target.layers[k].name;
-    effects_.push_back({"gap:" + name, "a gap g in front of layer " + name + " (gap_before += g)",
-                        {"g", "mm", "gap_m", 0.0, 3 * mm, 0.0}});
+  t.label = std::filesystem::absolute(path).lexically_normal().string();
+  t.text = fileContents(path);
+  for (std::size_t k = 0; k < t.base.target.layers.size(); ++k)
+    if (strengthModelOf(t, k) == "bilinear") t.rateHardened.push_back(k);
+  return t;
+}
+
+std::vector<std::string> scenariosNamedBy(const MeasuredData& data) {
+  std::vector<std::string> paths;
+  for (const MeasuredCase& c : data.cases)
+    if (!c.scenario.empty() && std::find(paths.begin(), paths.end(), c.scenario) == paths.end())
+      paths.push_back(c.scenario);
+  return paths;
+}
+
+SolverModel::SolverModel(const std::string& scenarioPath, SolverModelOptions options,
+                         const std::vector<std::string>& otherScenarios)
+    : options_(std::move(options)) {
+  hasDefault_ = !scenarioPath.empty();
+  if (hasDefault_) targets_.push_back(loadTarget(scenarioPath));
+  for (const std::string& path : otherScenarios) {
+    const std::string label = std::filesystem::absolute(path).lexically_normal().string();
+    if (std::none_of(targets_.begin(), targets_.end(), [&](const Target& t) { return t.label == label; }))
+      targets_.push_back(loadTarget(path));
   }
-  for (const auto& layer : base_.target.layers)
-    effects_.push_back({"thickness:" + layer.name,
-                        "layer " + layer.name + "'s thickness (or areal density) is f times the scenario's",
-                        {"f", "", "thickness_factor", 0.5, 1.5, 1.0}});
-  for (const auto& layer : base_.target.layers)
-    effects_.push_back({"strength:" + layer.name,
-                        "layer " + layer.name + "'s material has s times the flow stress of " + layer.material,
-                        {"s", "", "strength_factor", 0.5, 2.0, 1.0}});
-  // The layers whose flow curve is bilinear: the fabric and laminate cards (seed 000 Table 4).
-  std::string fabrics;
-  for (std::size_t k = 0; k < layers; ++k)
-    if (strengthModelOf(k) == "bilinear") {
-      rateHardened_.push_back(k);
-      fabrics += (fabrics.empty() ? "" : ", ") + base_.target.layers[k].name;
+  if (targets_.empty())
+    throw InputError(InputLocation::flag("--scenario"), "no scenario to run the shots on",
+                     "--scenario FILE, or a scenario column in the measured data");
+  const Target& first = targets_.front();
+  const auto layerNames = [](const Target& t) {
+    std::vector<std::string> names;
+    for (const auto& layer : t.base.target.layers) names.push_back(layer.name);
+    return names;
+  };
+  const bool sameLayers = std::all_of(targets_.begin(), targets_.end(),
+                                      [&](const Target& t) { return layerNames(t) == layerNames(first); });
+  const std::size_t layers = first.base.target.layers.size();
+  constexpr double mm = 1e-3, deg = std::numbers::pi / 180;
+  if (sameLayers) {
+    if (layers >= 3)
+      effects_.push_back({"interlayer_gaps",
+                          "a gap g between every two layers in front of the rear wall (gap_before += g for layers 2 to " +
+                              std::to_string(layers - 1) + ")",
+                          {"g", "mm", "gap_m", 0.0, 3 * mm, 0.0}});
+    for (std::size_t k = 1; k < layers; ++k) {
+      const std::string& name = first.base.target.layers[k].name;
+      effects_.push_back({"gap:" + name, "a gap g in front of layer " + name + " (gap_before += g)",
+                          {"g", "mm", "gap_m", 0.0, 3 * mm, 0.0}});
     }
-  if (!rateHardened_.empty())
+    for (const auto& layer : first.base.target.layers)
+      effects_.push_back({"thickness:" + layer.name,
+                          "layer " + layer.name + "'s thickness (or areal density) is f times the scenario's",
+                          {"f", "", "thickness_factor", 0.5, 1.5, 1.0}});
+    for (const auto& layer : first.base.target.layers)
+      effects_.push_back({"strength:" + layer.name,
+                          "layer " + layer.name + "'s material has s times the flow stress of " + layer.material,
+                          {"s", "", "strength_factor", 0.5, 2.0, 1.0}});
+  }
+  // A material's strength as one effect: the same card in every layer made of it.
+  std::vector<std::pair<std::string, int>> materialUses;
+  for (const Target& t : targets_)
+    for (std::size_t k = 0; k < t.base.target.layers.size(); ++k) {
+      if (strengthModelOf(t, k).empty()) continue;
+      const std::string& material = t.base.target.layers[k].material;
+      auto it = std::find_if(materialUses.begin(), materialUses.end(), [&](const auto& u) { return u.first == material; });
+      if (it == materialUses.end()) materialUses.emplace_back(material, 1);
+      else ++it->second;
+    }
+  for (const auto& [material, uses] : materialUses)
+    if (uses > 1 || targets_.size() > 1)
+      effects_.push_back({"material_strength:" + material,
+                          "every layer made of " + material + " has s times its flow stress" +
+                              (targets_.size() > 1 ? ", in every scenario" : ""),
+                          {"s", "", "strength_factor", 0.5, 2.0, 1.0}});
+  std::string fabrics;
+  for (const Target& t : targets_)
+    for (std::size_t k : t.rateHardened) {
+      const std::string& name = t.base.target.layers[k].name;
+      if (fabrics.find(name) == std::string::npos) fabrics += (fabrics.empty() ? "" : ", ") + name;
+    }
+  if (!fabrics.empty())
     effects_.push_back({"rate_hardening",
                         "the fabric layers (" + fabrics + ") harden with strain rate: flow stress x (1 + C ln max(rate / " +
                             value(kFabricReferenceRate, " 1/s", 1.0) + ", 1)), Johnson-Cook's rate term",
                         {"C", "", "rate_coefficient", 0.0, 0.15, 0.0}});
-  if (!failureKeys(projectileMaterial()).empty())
+  if (!failureKeys(projectileMaterial(first)).empty())
     effects_.push_back({"fragmentation",
-                        "the projectile breaks up at f times the failure threshold of " + base_.projectile.material +
+                        "the projectile breaks up at f times the failure threshold of " + first.base.projectile.material +
                             " (f < 1: it fragments more easily)",
                         {"f", "", "failure_factor", 0.25, 2.0, 1.0}});
   if (options_.cardDirectory.empty())
@@ -82,7 +135,8 @@ SolverModel::SolverModel(const std::string& scenarioPath, SolverModelOptions opt
                                  : (std::filesystem::path(options_.cacheFile).parent_path() / "cards").string();
   effects_.push_back({"obliquity", "every shot is delta degrees more oblique than recorded (3D runs)",
                       {"delta", "deg", "angle_error_rad", 0.0, 15 * deg, 0.0}});
-  if (base_.projectile.shape == sim::ProjectileShape::cylinder)
+  if (std::all_of(targets_.begin(), targets_.end(),
+                  [](const Target& t) { return t.base.projectile.shape == sim::ProjectileShape::cylinder; }))
     effects_.push_back({"yaw",
                         "every shot has psi degrees more yaw than recorded: the projectile's axis turned off its flight "
                         "path, in the plane of incidence (3D runs)",
@@ -93,13 +147,31 @@ SolverModel::SolverModel(const std::string& scenarioPath, SolverModelOptions opt
 bool turnsRunsThreeD(const std::string& effect) { return effect == "obliquity" || effect == "yaw"; }
 
 std::string SolverModel::describe() const {
-  std::string s = "scenario " + path_;
+  std::string s = targets_.size() == 1 ? "scenario " : "scenarios ";
+  for (std::size_t i = 0; i < targets_.size(); ++i) s += (i ? ", " : "") + targets_[i].path;
   for (const auto& kv : options_.settings) s += " --set " + kv;
   return s;
 }
 
-std::size_t SolverModel::layerIndex(const std::string& label) const {
-  const auto& layers = base_.target.layers;
+const SolverModel::Target& SolverModel::targetOf(const MeasuredCase& c) const {
+  if (c.scenario.empty()) {
+    if (!hasDefault_) throw std::logic_error("case " + c.id + " has no scenario (SolverModel::check lets none through)");
+    return targets_.front();
+  }
+  const std::string label = std::filesystem::absolute(c.scenario).lexically_normal().string();
+  for (const Target& t : targets_)
+    if (t.label == label) return t;
+  throw std::logic_error("case " + c.id + "'s scenario " + c.scenario + " was not given to the SolverModel");
+}
+
+MeasuredCase SolverModel::withDiameter(const MeasuredCase& c) const {
+  MeasuredCase out = c;
+  if (!(out.diameter > 0)) out.diameter = targetOf(c).base.projectile.diameter;
+  return out;
+}
+
+std::size_t SolverModel::layerIndex(const Target& t, const std::string& label) {
+  const auto& layers = t.base.target.layers;
   for (std::size_t k = 0; k < layers.size(); ++k)
     if (layers[k].name == label) return k;
   if (!label.empty() && label.find_first_not_of("0123456789") == std::string::npos) {
@@ -110,66 +182,90 @@ std::size_t SolverModel::layerIndex(const std::string& label) const {
 }
 
 void SolverModel::check(const MeasuredData& data) const {
-  if (!data.hasDiameters)
+  if (!data.hasDiameters && !data.hasScenarios)
     throw InputError(InputLocation::file(data.source, std::nullopt, "diameter_mm"), "the solver model needs each shot's diameter",
-                     "a diameter_mm column");
-  std::string names;
-  for (const auto& l : base_.target.layers) names += (names.empty() ? "" : ", ") + l.name;
-  for (const Observation& o : data.observations)
-    if (!o.layer.empty() && layerIndex(o.layer) == std::string::npos)
-      throw InputError(InputLocation::file(data.source, o.line, "layer"),
-                       "'" + o.layer + "' is not a layer of " + path_,
-                       "a layer name (" + names + ") or a number 1 to " + std::to_string(base_.target.layers.size()));
+                     "a diameter_mm column (or a scenario column, whose scenarios give the diameter)");
+  for (const MeasuredCase& c : data.cases) {
+    if (c.scenario.empty() && !hasDefault_)
+      throw InputError(InputLocation::file(data.source, c.line, "scenario"),
+                       "case '" + c.id + "' names no scenario and no --scenario was given",
+                       "a scenario file in the scenario column, or --scenario FILE for such cases");
+    if (c.scenario.empty()) continue;
+    const std::string label = std::filesystem::absolute(c.scenario).lexically_normal().string();
+    if (std::none_of(targets_.begin(), targets_.end(), [&](const Target& t) { return t.label == label; }))
+      throw InputError(InputLocation::file(data.source, c.line, "scenario"),
+                       "case '" + c.id + "'s scenario " + c.scenario + " is not one the model was given",
+                       "the scenarios of scenariosNamedBy(data)");
+  }
+  for (const Observation& o : data.observations) {
+    if (o.layer.empty()) continue;
+    const Target& t = targetOf(data.cases.at(o.caseIndex));
+    if (layerIndex(t, o.layer) != std::string::npos) continue;
+    std::string names;
+    for (const auto& l : t.base.target.layers) names += (names.empty() ? "" : ", ") + l.name;
+    throw InputError(InputLocation::file(data.source, o.line, "layer"), "'" + o.layer + "' is not a layer of " + t.path,
+                     "a layer name (" + names + ") or a number 1 to " + std::to_string(t.base.target.layers.size()));
+  }
 }
 
-std::vector<std::string> SolverModel::settingsFor(const MeasuredCase& c, const EffectSetting& setting) const {
+std::vector<std::string> SolverModel::settingsFor(const MeasuredCase& measured, const EffectSetting& setting) const {
+  const MeasuredCase c = withDiameter(measured);
+  const Target& t = targetOf(c);
   std::vector<std::string> s = options_.settings;
   double angle = c.angle;
   s.push_back("projectile.diameter=" + value(c.diameter, "mm", 1e3));
   s.push_back("projectile.velocity=" + value(c.velocity, "m/s", 1.0));
   if (const Effect* e = setting.effect) {
-    const auto& layers = base_.target.layers;
+    const auto& layers = t.base.target.layers;
+    const auto material = [&](std::size_t k, const std::string& card) {
+      s.push_back("target.layer." + std::to_string(k + 1) + ".material=" + card);
+    };
     const auto gap = [&](std::size_t k) {
       s.push_back("target.layer." + std::to_string(k + 1) + ".gap_before=" +
                   value(layers[k].gapBefore + setting.value, "mm", 1e3));
     };
+    const auto afterPrefix = [&](std::size_t prefix) { return e->name.substr(prefix); };
     if (e->name == "interlayer_gaps") {
       for (std::size_t k = 1; k + 1 < layers.size(); ++k) gap(k);
     } else if (e->name.rfind("gap:", 0) == 0) {
-      gap(layerIndex(e->name.substr(4)));
+      gap(layerIndex(t, afterPrefix(4)));
     } else if (e->name.rfind("thickness:", 0) == 0) {
-      const std::size_t k = layerIndex(e->name.substr(10));
+      const std::size_t k = layerIndex(t, afterPrefix(10));
       s.push_back("target.layer." + std::to_string(k + 1) + ".thickness=" + value(layers[k].thickness * setting.value, "mm", 1e3));
     } else if (e->name.rfind("strength:", 0) == 0) {
-      const std::size_t k = layerIndex(e->name.substr(9));
-      s.push_back("target.layer." + std::to_string(k + 1) + ".material=" + strengthCard(k, setting.value));
+      const std::size_t k = layerIndex(t, afterPrefix(9));
+      material(k, strengthCard(t, layers[k].material, "target.layer." + layers[k].name + ".material", setting.value));
+    } else if (e->name.rfind("material_strength:", 0) == 0) {
+      const std::string id = afterPrefix(18);
+      for (std::size_t k = 0; k < layers.size(); ++k)
+        if (layers[k].material == id)
+          material(k, strengthCard(t, id, "target.layer." + layers[k].name + ".material", setting.value));
     } else if (e->name == "rate_hardening") {
-      for (std::size_t k : rateHardened_)
-        s.push_back("target.layer." + std::to_string(k + 1) + ".material=" + rateHardenedCard(k, setting.value));
+      for (std::size_t k : t.rateHardened) material(k, rateHardenedCard(t, k, setting.value));
     } else if (e->name == "fragmentation") {
-      s.push_back("projectile.material=" + fragmentationCard(setting.value));
+      s.push_back("projectile.material=" + fragmentationCard(t, setting.value));
     } else if (e->name == "obliquity") {
       angle += setting.value;
     } else if (e->name == "yaw") {
-      s.push_back("projectile.yaw=" + value(base_.projectile.yaw + setting.value, "deg", 180 / std::numbers::pi));
+      s.push_back("projectile.yaw=" + value(t.base.projectile.yaw + setting.value, "deg", 180 / std::numbers::pi));
     }
   }
   s.push_back("projectile.angle=" + value(angle, "deg", 180 / std::numbers::pi));
   return s;
 }
 
-Material SolverModel::projectileMaterial() const {
-  return sim::resolveMaterial(base_.projectile.material, InputLocation::file(path_, std::nullopt, "projectile.material"));
+Material SolverModel::projectileMaterial(const Target& t) const {
+  return sim::resolveMaterial(t.base.projectile.material, InputLocation::file(t.path, std::nullopt, "projectile.material"));
 }
 
-Material SolverModel::layerMaterial(std::size_t k) const {
-  const auto& layer = base_.target.layers[k];
+Material SolverModel::layerMaterial(const Target& t, std::size_t k) const {
+  const auto& layer = t.base.target.layers[k];
   return sim::resolveMaterial(layer.material,
-                              InputLocation::file(path_, std::nullopt, "target.layer." + layer.name + ".material"));
+                              InputLocation::file(t.path, std::nullopt, "target.layer." + layer.name + ".material"));
 }
 
-std::string SolverModel::strengthModelOf(std::size_t k) const {
-  const Material m = layerMaterial(k);
+std::string SolverModel::strengthModelOf(const Target& t, std::size_t k) const {
+  const Material m = layerMaterial(t, k);
   return m.has("strength") ? m.sections.at("strength").model : "";
 }
 
@@ -201,12 +297,12 @@ std::string SolverModel::writeDerivedCard(Material m, const std::string& materia
   return card;
 }
 
-std::string SolverModel::strengthCard(std::size_t k, double factor) const {
-  const auto& layer = base_.target.layers[k];
-  Material m = layerMaterial(k);
+std::string SolverModel::strengthCard(const Target& t, const std::string& material, const std::string& where,
+                                      double factor) const {
+  Material m = sim::resolveMaterial(material, InputLocation::file(t.path, std::nullopt, where));
   if (!m.has("strength"))
-    throw InputError(InputLocation::file(path_, std::nullopt, "target.layer." + layer.name + ".material"),
-                     "material " + layer.material + " has no [strength] section to scale", "a layer with a strength model");
+    throw InputError(InputLocation::file(t.path, std::nullopt, where),
+                     "material " + material + " has no [strength] section to scale", "a layer with a strength model");
   // The stresses of the flow curve; rate and temperature terms are ratios and stay.
   int scaled = 0;
   for (const char* key : {"A", "B", "yield_stress", "tangent_modulus"}) {
@@ -215,29 +311,29 @@ std::string SolverModel::strengthCard(std::size_t k, double factor) const {
   }
   if (scaled == 0)
     throw InputError(InputLocation::file(m.path, std::nullopt, "strength"),
-                     "the strength model of " + layer.material + " has none of A, B, yield_stress, tangent_modulus",
+                     "the strength model of " + material + " has none of A, B, yield_stress, tangent_modulus",
                      "a Johnson-Cook or bilinear strength model");
-  return writeDerivedCard(m, layer.material, "strength x", factor);
+  return writeDerivedCard(m, material, "strength x", factor);
 }
 
-std::string SolverModel::rateHardenedCard(std::size_t k, double coefficient) const {
-  Material m = layerMaterial(k);
+std::string SolverModel::rateHardenedCard(const Target& t, std::size_t k, double coefficient) const {
+  Material m = layerMaterial(t, k);
   auto& params = m.sections["strength"].params;
   params["C"] = coefficient;
   params["reference_strain_rate"] = kFabricReferenceRate;
-  return writeDerivedCard(m, base_.target.layers[k].material, "rate C", coefficient);
+  return writeDerivedCard(m, t.base.target.layers[k].material, "rate C", coefficient);
 }
 
-std::string SolverModel::fragmentationCard(double factor) const {
-  Material m = projectileMaterial();
+std::string SolverModel::fragmentationCard(const Target& t, double factor) const {
+  Material m = projectileMaterial(t);
   for (const std::string& key : failureKeys(m)) m.sections["failure"].params[key] *= factor;
-  return writeDerivedCard(m, base_.projectile.material, "failure x", factor);
+  return writeDerivedCard(m, t.base.projectile.material, "failure x", factor);
 }
 
-nlohmann::json SolverModel::runOrRecall(const std::vector<std::string>& settings) {
-  const std::string key = sim::RunCache::key(label_, text_, settings);
+nlohmann::json SolverModel::runOrRecall(const Target& t, const std::vector<std::string>& settings) {
+  const std::string key = sim::RunCache::key(t.label, t.text, settings);
   if (auto found = cache_->find(key)) return *found;
-  const sim::ImpactScenario scenario = sim::loadScenario(path_, settings);
+  const sim::ImpactScenario scenario = sim::loadScenario(t.path, settings);
   sim::ImpactRunOptions runOptions;
   runOptions.threads = options_.threads;
   const sim::ImpactResult r = sim::runImpact(scenario, runOptions);
@@ -258,12 +354,14 @@ nlohmann::json SolverModel::runOrRecall(const std::vector<std::string>& settings
   return kept;
 }
 
-double SolverModel::margin(const MeasuredCase& c, const EffectSetting& setting, bool perforatedAtMeasured) {
+double SolverModel::margin(const MeasuredCase& measured, const EffectSetting& setting, bool perforatedAtMeasured) {
   // Geometric steps away from the measured diameter until the verdict turns, then bisection in ln d.
+  const MeasuredCase c = withDiameter(measured);
+  const Target& t = targetOf(c);
   const auto perforates = [&](double d) {
     MeasuredCase probe = c;
     probe.diameter = d;
-    return runOrRecall(settingsFor(probe, setting))["perforated"].get<bool>();
+    return runOrRecall(t, settingsFor(probe, setting))["perforated"].get<bool>();
   };
   double near = c.diameter, far = c.diameter;
   const double step = perforatedAtMeasured ? 1.0 / 1.25 : 1.25;
@@ -299,7 +397,7 @@ std::vector<Prediction> SolverModel::predict(const MeasuredData& data, const std
     for (std::size_t k; (k = next++) < cases.size();) {
       try {
         const MeasuredCase& c = data.cases.at(cases[k]);
-        runs[k] = runOrRecall(settingsFor(c, setting));
+        runs[k] = runOrRecall(targetOf(c), settingsFor(c, setting));
         const auto measured = measuredOutcome.find(cases[k]);
         const bool perforated = runs[k]["perforated"].get<bool>();
         if (measured != measuredOutcome.end() && measured->second != perforated)
@@ -326,10 +424,13 @@ std::vector<Prediction> SolverModel::predict(const MeasuredData& data, const std
     p.margin = margins[k];
     // A stopped shot has no residual velocity; the measured data write it as 0.
     p.residualVelocity = p.perforated ? r["residual_velocity_m_s"].get<double>() : 0.0;
-    // Every label the data may use for a layer gets that layer's hole.
+    // Every label the data may use for a layer of this case's target gets that layer's hole.
+    const Target& t = targetOf(data.cases.at(cases[k]));
     for (const Observation& o : data.observations) {
       if (o.layer.empty()) continue;
-      const auto& h = r["hole_size_mm"].at(layerIndex(o.layer));
+      const std::size_t layer = layerIndex(t, o.layer);
+      if (layer == std::string::npos) continue;
+      const auto& h = r["hole_size_mm"].at(layer);
       p.holes.push_back({o.layer, {h.at(0).get<double>() * 1e-3, h.at(1).get<double>() * 1e-3}});
     }
     out.push_back(std::move(p));

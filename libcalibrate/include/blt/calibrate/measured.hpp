@@ -4,7 +4,12 @@
 //
 // One CSV (read with libcore's reader), one row per measurement or per shot, columns named with their unit:
 //   case                      optional: an id; rows with the same id are one shot (their d, V, theta must agree)
-//   diameter_mm               projectile diameter (required by the solver model, ignored by analytical ones)
+//   scenario                  optional: the shot's target as a scenario file (relative to the measured file's
+//                             folder), for data on several targets (seed 003's four plates); empty: the
+//                             calibration's --scenario. Solver model only.
+//   diameter_mm               projectile diameter (required by the solver model unless the file has a scenario
+//                             column, where an empty cell means the scenario's diameter; ignored by analytical
+//                             models)
 //   velocity_km_s | velocity_m_s | impact_velocity_m_s   impact velocity (one of them, required)
 //   angle_deg                 optional, from the target normal, 0 <= theta < 90 (default 0)
 //   perforated                optional: 1/0, Y/N, yes/no, true/false; empty cell: not measured
@@ -28,7 +33,8 @@ const char* displayUnit(ObservationKind kind);
 
 struct MeasuredCase {
   std::string id;
-  double diameter = 0;  // m; 0 when the file has no diameter column
+  std::string scenario; // the scenario file's path (resolved against the measured file's folder); empty: none given
+  double diameter = 0;  // m; 0 when not given
   double velocity = 0;  // m/s
   double angle = 0;     // rad
   int line = 0;         // first line of the case in the file
@@ -47,6 +53,7 @@ struct MeasuredData {
   std::vector<MeasuredCase> cases;
   std::vector<Observation> observations;
   bool hasDiameters = false;
+  bool hasScenarios = false;  // the file has a scenario column
 
   bool has(ObservationKind kind) const;
 };

@@ -20,6 +20,12 @@
 //   yaw               a yaw psi in [0, 10 deg] added to every shot: the axis of a cylindrical projectile turned off
 //                     its flight path in the plane of incidence; offered for cylinders only, and like obliquity a
 //                     3D run, so only when named
+//   material_strength:MAT  factor s in [0.5, 2] on the flow stress of material MAT in every layer made of it, in
+//                     every scenario (one card for all: seed 003's Q235 plates); offered when MAT is used by more
+//                     than one layer, or when the data span several scenarios
+// Several targets: measured data with a scenario column (measured.hpp) run each shot on its own scenario; the
+// layer-named effects (interlayer_gaps, gap:, thickness:, strength:) are then offered only when every scenario
+// has the same layers, yaw only when every projectile is a cylinder.
 // Outcomes: by default right or wrong. With `outcomeMargin`, a case the model gets wrong is bisected on the
 // diameter (other inputs as measured) for the model's d_c, and its margin ln(d/d_c) says how far wrong it is
 // (about 4 to 6 runs a wrong case; a right case needs none, since the calibrator's outcome residual is then 0).
@@ -58,9 +64,15 @@ struct SolverModelOptions {
 // Whether an effect makes every run a 3D half model (obliquity, yaw): such effects are run only when named.
 bool turnsRunsThreeD(const std::string& effect);
 
+// The distinct scenarios the data's cases name, in order of first appearance.
+std::vector<std::string> scenariosNamedBy(const MeasuredData& data);
+
 class SolverModel : public Model {
  public:
-  SolverModel(const std::string& scenarioPath, SolverModelOptions options);
+  // scenarioPath: the target of the cases whose data name no scenario ("" when every case names one);
+  // otherScenarios: the further targets the data name (scenariosNamedBy).
+  SolverModel(const std::string& scenarioPath, SolverModelOptions options,
+              const std::vector<std::string>& otherScenarios = {});
 
   std::string describe() const override;
   const std::vector<Effect>& effects() const override { return effects_; }
@@ -76,32 +88,40 @@ class SolverModel : public Model {
   int runsMade() const { return runsMade_; }
 
  private:
-  std::size_t layerIndex(const std::string& label) const;  // npos when not a layer
+  // One scenario the shots are run on, with what the run cache and the effects need of it.
+  struct Target {
+    std::string path;
+    std::string label, text;  // the scenario's absolute path and its text, for the run cache's keys
+    sim::ImpactScenario base;
+    std::vector<std::size_t> rateHardened;  // the layers rate_hardening acts on (bilinear flow curves)
+  };
+  Target loadTarget(const std::string& path) const;
+  const Target& targetOf(const MeasuredCase& c) const;
+  MeasuredCase withDiameter(const MeasuredCase& c) const;  // a case without a diameter gets its scenario's
+  static std::size_t layerIndex(const Target& t, const std::string& label);  // npos when not a layer
   // Derived material cards, written to the card directory; each returns the card's path.
-  std::string strengthCard(std::size_t layer, double factor) const;
-  std::string rateHardenedCard(std::size_t layer, double coefficient) const;
-  std::string fragmentationCard(double factor) const;
+  std::string strengthCard(const Target& t, const std::string& material, const std::string& where, double factor) const;
+  std::string rateHardenedCard(const Target& t, std::size_t layer, double coefficient) const;
+  std::string fragmentationCard(const Target& t, double factor) const;
   std::string writeDerivedCard(Material m, const std::string& material, const std::string& change,
                                double amount) const;
-  Material projectileMaterial() const;
-  Material layerMaterial(std::size_t layer) const;
-  std::string strengthModelOf(std::size_t layer) const;  // "" when the card has no [strength]
+  Material projectileMaterial(const Target& t) const;
+  Material layerMaterial(const Target& t, std::size_t layer) const;
+  std::string strengthModelOf(const Target& t, std::size_t layer) const;  // "" when the card has no [strength]
   // The failure thresholds of a card that `fragmentation` scales.
   static std::vector<std::string> failureKeys(const Material& m);
 
   // The reference rate of rate_hardening, 1/s: the cards do not say at which rate their tensile tests were made,
   // so Johnson-Cook's usual 1 1/s.
   static constexpr double kFabricReferenceRate = 1.0;
-  nlohmann::json runOrRecall(const std::vector<std::string>& settings);
+  nlohmann::json runOrRecall(const Target& t, const std::vector<std::string>& settings);
   // ln(d/d_c) of the model for case c under `setting`, from the run at the measured diameter (`atMeasured`).
   double margin(const MeasuredCase& c, const EffectSetting& setting, bool perforatedAtMeasured);
 
-  std::string path_;
-  std::string label_, text_;  // the scenario's absolute path and its text, for the run cache's keys
   SolverModelOptions options_;
-  sim::ImpactScenario base_;
+  std::vector<Target> targets_;  // the first is the default target when hasDefault_
+  bool hasDefault_ = false;
   std::vector<Effect> effects_;
-  std::vector<std::size_t> rateHardened_;  // the layers rate_hardening acts on
   std::unique_ptr<sim::RunCache> cache_;
   std::mutex mutex_;
   int runsMade_ = 0;
