@@ -85,3 +85,54 @@ TEST_CASE("validate: an unknown section is an error naming the sections there ar
   CHECK(r.output.find("no section 'table9'") != std::string::npos);
   CHECK(r.output.find("table1, table5, table6, table7, seed003, weldox, seed001, convergence") != std::string::npos);
 }
+
+TEST_CASE("validate: Table 1 at several grid alignments counts the right outcomes at each, offset 0 the table's") {
+  const auto dir = std::filesystem::temp_directory_path() / "blt_validate_table1_alignments";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  // Seed 000 Table 1 (data/seed/seed000_table1_tests.csv): d (mm), V (km/s), perforated in the test.
+  struct Test {
+    const char* d;
+    const char* v;
+    bool perforated;
+  };
+  const std::vector<Test> tests{{"1", "3.09", false}, {"1.2", "2.93", false}, {"1.4", "3.02", true},
+                                {"1", "3.98", true},  {"1.2", "4.03", true},  {"0.9", "3.85", false},
+                                {"1", "4.3", true},   {"0.8", "4.47", false}, {"0.8", "4.91", false},
+                                {"1.2", "4.99", true}, {"1", "5.15", true},   {"0.9", "6.11", false},
+                                {"1", "6.19", true}};
+  {
+    std::ofstream log(dir / "runs.jsonl");
+    const auto put = [&](const std::string& scenario, std::vector<std::string> settings, bool perforated) {
+      log << nlohmann::json{{"key", runKey(scenario, settings)}, {"summary", {{"perforated", perforated}}}}.dump() << "\n";
+    };
+    for (std::size_t i = 0; i < tests.size(); ++i) {
+      const std::vector<std::string> shot{std::string("projectile.diameter=") + tests[i].d + "mm",
+                                          std::string("projectile.velocity=") + tests[i].v + "km/s",
+                                          "projectile.angle=0deg"};
+      // Offset 0: all right; offset 0.5: the first three wrong. The other two models: all right.
+      put("scenarios/fabric_al_corrected.toml", shot, tests[i].perforated);
+      auto multi = shot;
+      multi.push_back("solver.contact=multi-field");
+      put("scenarios/fabric_al_corrected.toml", multi, tests[i].perforated);
+      put("scenarios/fabric_al_original.toml", shot, tests[i].perforated);
+      auto shifted = shot;
+      shifted.push_back("resolution.grid_offset=0.5");
+      put("scenarios/fabric_al_corrected.toml", shifted, i < 3 ? !tests[i].perforated : tests[i].perforated);
+    }
+  }
+  const BltRun r = runBlt("validate --only table1 --alignments 2 --out '" + dir.string() + "'");
+  REQUIRE_MESSAGE(r.status == 0, r.output);
+  CHECK(r.output.find("0 runs made, 52 reused") != std::string::npos);
+  std::ifstream in(dir / "validation.json");
+  const auto doc = nlohmann::json::parse(in);
+  const auto& table1 = doc["sections"]["table1"];
+  CHECK(table1["right_corrected"] == 13);
+  CHECK(table1["alignments"]["right"] == nlohmann::json::array({13, 10}));
+  CHECK(table1["alignments"]["cases"][0]["right"] == 1);
+  CHECK(table1["alignments"]["cases"][3]["right"] == 2);
+  std::ifstream md(dir / "validation.md");
+  const std::string text((std::istreambuf_iterator<char>(md)), std::istreambuf_iterator<char>());
+  CHECK(text.find("Right outcomes at each alignment: 13, 10 of 13 (10 to 13)") != std::string::npos);
+  CHECK(text.find("holds at 1 of 2 alignments") != std::string::npos);
+}
