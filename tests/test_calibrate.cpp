@@ -588,6 +588,40 @@ TEST_CASE("calibrate: each shot is run on its own scenario, and layer effects st
   fs::remove_all(dir);
 }
 
+TEST_CASE("calibrate: averaged over grid alignments, a prediction is the mean of the shifted runs") {
+  const std::string dir = tempDir("alignments");
+  const std::string scenario = std::string(BLT_DATA_DIR) + "/scenarios/fabric_al_original.toml";
+  SolverModelOptions options;
+  options.settings = {"resolution.particle_spacing=0.2mm", "resolution.cell_size=0.4mm"};  // coarse, cheap
+  options.cacheFile = dir + "/runs.jsonl";
+  const MeasuredData data = parse("case,diameter_mm,velocity_km_s,perforated,layer,hole_h_mm\n05,1.2,4.03,Y,,\n05,1.2,4.03,,outer,1.8\n");
+  options.alignments = 2;
+  SolverModel averaged(scenario, options);
+  const Prediction mean = averaged.predict(data, {0}, {})[0];
+  CHECK(averaged.runsMade() == 2);
+  CHECK(averaged.describe().find("mean of 2 grid alignments") != std::string::npos);
+  options.alignments = 1;
+  SolverModel single(scenario, options);
+  const Prediction atZero = single.predict(data, {0}, {})[0];
+  CHECK(single.runsMade() == 0);  // alignment 0 is the single-alignment run
+  options.settings.push_back("resolution.grid_offset=0.5");
+  SolverModel shifted(scenario, options);
+  const Prediction atHalf = shifted.predict(data, {0}, {})[0];
+  CHECK(shifted.runsMade() == 1);
+  CHECK(mean.holes.at(0).second.first ==
+        doctest::Approx(0.5 * (atZero.holes.at(0).second.first + atHalf.holes.at(0).second.first)));
+  REQUIRE(mean.perforatedFraction.has_value());
+  CHECK(*mean.perforatedFraction == doctest::Approx(0.5 * (atZero.perforated + atHalf.perforated)));
+  CHECK(mean.residualVelocity.value() ==
+        doctest::Approx(0.5 * (atZero.residualVelocity.value() + atHalf.residualVelocity.value())));
+  // The outcome's residual is the perforating share minus the measured outcome.
+  CHECK(residualOf(data.observations[0], mean) == doctest::Approx(*mean.perforatedFraction - 1.0));
+  options.alignments = 2;
+  options.outcomeMargin = true;
+  CHECK(messageOf([&] { SolverModel(scenario, options); }).find("--alignments") != std::string::npos);
+  fs::remove_all(dir);
+}
+
 TEST_CASE("calibrate: solver runs are kept in the run cache and not made again") {
   const std::string dir = tempDir("cache");
   const std::string scenario = std::string(BLT_DATA_DIR) + "/scenarios/fabric_al_original.toml";

@@ -47,7 +47,7 @@ std::optional<std::pair<double, double>> holeOf(const Observation& o, const Pred
 
 double predictedValue(const Observation& o, const Prediction& p) {
   switch (o.kind) {
-    case ObservationKind::outcome: return p.perforated ? 1.0 : 0.0;
+    case ObservationKind::outcome: return p.perforatedFraction.value_or(p.perforated ? 1.0 : 0.0);
     case ObservationKind::residualVelocity: return p.residualVelocity.value_or(0.0);
     case ObservationKind::holeHorizontal:
     case ObservationKind::holeVertical: {

@@ -57,6 +57,10 @@ std::vector<std::string> scenariosNamedBy(const MeasuredData& data) {
 SolverModel::SolverModel(const std::string& scenarioPath, SolverModelOptions options,
                          const std::vector<std::string>& otherScenarios)
     : options_(std::move(options)) {
+  if (options_.alignments < 1 || (options_.alignments > 1 && options_.outcomeMargin))
+    throw InputError(InputLocation::flag("--alignments"),
+                     std::to_string(options_.alignments) + " alignments" + (options_.outcomeMargin ? " with --outcome-margin" : ""),
+                     "1 or more; above 1 the outcome is the perforating share, so without --outcome-margin");
   hasDefault_ = !scenarioPath.empty();
   if (hasDefault_) targets_.push_back(loadTarget(scenarioPath));
   for (const std::string& path : otherScenarios) {
@@ -150,6 +154,7 @@ std::string SolverModel::describe() const {
   std::string s = targets_.size() == 1 ? "scenario " : "scenarios ";
   for (std::size_t i = 0; i < targets_.size(); ++i) s += (i ? ", " : "") + targets_[i].path;
   for (const auto& kv : options_.settings) s += " --set " + kv;
+  if (options_.alignments > 1) s += ", each prediction the mean of " + std::to_string(options_.alignments) + " grid alignments";
   return s;
 }
 
@@ -388,50 +393,70 @@ std::vector<Prediction> SolverModel::predict(const MeasuredData& data, const std
   if (options_.outcomeMargin)
     for (const Observation& o : data.observations)
       if (o.kind == ObservationKind::outcome) measuredOutcome[o.caseIndex] = o.value > 0.5;
+  const std::size_t alignments = static_cast<std::size_t>(std::max(1, options_.alignments));
   std::vector<std::optional<double>> margins(cases.size());
-  std::vector<nlohmann::json> runs(cases.size());
+  std::vector<nlohmann::json> runs(cases.size() * alignments);  // case k's alignment a at k * alignments + a
+  const std::size_t tasks = runs.size();
   std::atomic<std::size_t> next{0};
   std::exception_ptr failure;
   std::mutex failureMutex;
   const auto worker = [&] {
-    for (std::size_t k; (k = next++) < cases.size();) {
+    for (std::size_t task; (task = next++) < tasks;) {
       try {
+        const std::size_t k = task / alignments, a = task % alignments;
         const MeasuredCase& c = data.cases.at(cases[k]);
-        runs[k] = runOrRecall(targetOf(c), settingsFor(c, setting));
+        std::vector<std::string> settings = settingsFor(c, setting);
+        // Offset 0 adds no setting, so a single-alignment model's runs serve as alignment 0.
+        if (a > 0) settings.push_back("resolution.grid_offset=" + value(static_cast<double>(a) / alignments, "", 1.0));
+        runs[task] = runOrRecall(targetOf(c), settings);
+        if (alignments > 1) continue;
         const auto measured = measuredOutcome.find(cases[k]);
-        const bool perforated = runs[k]["perforated"].get<bool>();
+        const bool perforated = runs[task]["perforated"].get<bool>();
         if (measured != measuredOutcome.end() && measured->second != perforated)
           margins[k] = margin(c, setting, perforated);
       } catch (...) {
         std::lock_guard lock(failureMutex);
         if (!failure) failure = std::current_exception();
-        next = cases.size();
+        next = tasks;
       }
     }
   };
-  const int jobs = std::max(1, std::min<int>(options_.jobs, static_cast<int>(cases.size())));
+  const int jobs = std::max(1, std::min<int>(options_.jobs, static_cast<int>(tasks)));
   std::vector<std::thread> pool;
   for (int j = 1; j < jobs; ++j) pool.emplace_back(worker);
   worker();
   for (auto& t : pool) t.join();
   if (failure) std::rethrow_exception(failure);
 
+  // Means over the alignments (one alignment: the run itself).
   std::vector<Prediction> out;
-  for (std::size_t k = 0; k < runs.size(); ++k) {
-    const nlohmann::json& r = runs[k];
+  const double n = static_cast<double>(alignments);
+  for (std::size_t k = 0; k < cases.size(); ++k) {
     Prediction p;
-    p.perforated = r["perforated"].get<bool>();
+    int perforating = 0;
+    double residual = 0;
+    for (std::size_t a = 0; a < alignments; ++a) {
+      const nlohmann::json& r = runs[k * alignments + a];
+      // A stopped shot has no residual velocity; the measured data write it as 0.
+      if (r["perforated"].get<bool>()) ++perforating, residual += r["residual_velocity_m_s"].get<double>();
+    }
+    p.perforated = 2 * perforating >= static_cast<int>(alignments);
+    if (alignments > 1) p.perforatedFraction = perforating / n;
     p.margin = margins[k];
-    // A stopped shot has no residual velocity; the measured data write it as 0.
-    p.residualVelocity = p.perforated ? r["residual_velocity_m_s"].get<double>() : 0.0;
+    p.residualVelocity = residual / n;
     // Every label the data may use for a layer of this case's target gets that layer's hole.
     const Target& t = targetOf(data.cases.at(cases[k]));
     for (const Observation& o : data.observations) {
       if (o.layer.empty()) continue;
       const std::size_t layer = layerIndex(t, o.layer);
       if (layer == std::string::npos) continue;
-      const auto& h = r["hole_size_mm"].at(layer);
-      p.holes.push_back({o.layer, {h.at(0).get<double>() * 1e-3, h.at(1).get<double>() * 1e-3}});
+      double h = 0, v = 0;
+      for (std::size_t a = 0; a < alignments; ++a) {
+        const auto& hole = runs[k * alignments + a]["hole_size_mm"].at(layer);
+        h += hole.at(0).get<double>() * 1e-3 / n;
+        v += hole.at(1).get<double>() * 1e-3 / n;
+      }
+      p.holes.push_back({o.layer, {h, v}});
     }
     out.push_back(std::move(p));
   }

@@ -6,7 +6,8 @@
 // Error measure. Each observation has a residual r (predicted - measured): for residual velocities and hole
 // sizes the signed error; for outcomes, when the model gives a margin m = ln(V/V_bl) (or ln(d/d_c)), the
 // distance to the right side, min(0, m) for a perforation and max(0, m) for a stop (0 when right); without a
-// margin, predicted minus measured outcome (-1, 0, 1). Residuals are grouped (outcomes, residual velocities,
+// margin, predicted minus measured outcome (-1, 0, 1; with a perforated share from several runs, that share
+// minus the measured outcome). Residuals are grouped (outcomes, residual velocities,
 // hole sizes) and divided by the group's scale (outcomes 1, residual velocities and holes the RMS of their
 // measured values), and the error is E = sqrt(mean over the groups present of the mean squared scaled
 // residual): each kind of measurement weighs the same whatever its count or unit. E is dimensionless; the

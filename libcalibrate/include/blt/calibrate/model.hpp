@@ -38,6 +38,9 @@ struct EffectSetting {
 // One case predicted. What the model cannot predict stays empty.
 struct Prediction {
   bool perforated = false;
+  // The share of runs that perforate, when the model averages several (the solver over grid alignments);
+  // the outcome's predicted value is then this share instead of 0 or 1.
+  std::optional<double> perforatedFraction;
   // ln of the case's distance from the model's ballistic limit, positive when it perforates (ln(V/V_bl) or
   // ln(d/d_c)); empty when the model only gives the outcome.
   std::optional<double> margin;

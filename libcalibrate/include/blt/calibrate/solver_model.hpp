@@ -26,6 +26,7 @@
 // Several targets: measured data with a scenario column (measured.hpp) run each shot on its own scenario; the
 // layer-named effects (interlayer_gaps, gap:, thickness:, strength:) are then offered only when every scenario
 // has the same layers, yaw only when every projectile is a cylinder.
+// With `alignments` N > 1 every prediction is the mean of N runs on grids shifted by k/N of a cell.
 // Outcomes: by default right or wrong. With `outcomeMargin`, a case the model gets wrong is bisected on the
 // diameter (other inputs as measured) for the model's d_c, and its margin ln(d/d_c) says how far wrong it is
 // (about 4 to 6 runs a wrong case; a right case needs none, since the calibrator's outcome residual is then 0).
@@ -56,6 +57,10 @@ struct SolverModelOptions {
   int jobs = 1;                       // runs at once
   int threads = 1;                    // solver threads per run
   bool outcomeMargin = false;         // bisect the wrongly predicted outcomes for ln(d/d_c)
+  // Each prediction averaged over this many alignments of grid and particles (resolution.grid_offset k/N):
+  // the outcome becomes the share that perforates, residual velocity and holes the means. Near the limit a
+  // single run's verdict turns with the alignment (issue 5); N runs a case smooth that. Not with outcomeMargin.
+  int alignments = 1;
   double marginTolerance = 0.03;      // the bisection stops when d_hi / d_lo <= 1 + this
   int marginSteps = 6;                // at most this many factors of 1.25 searched for the other side
   std::function<void(const std::string&)> log;  // told each run as it ends
