@@ -32,6 +32,9 @@ std::string fileContents(const std::string& path) {
   return s.str();
 }
 
+// A scenario as the run cache and the case lookup name it: its absolute, normalised path.
+std::string scenarioLabel(const std::string& path) { return std::filesystem::absolute(path).lexically_normal().string(); }
+
 }  // namespace
 
 SolverModel::Target SolverModel::loadTarget(const std::string& path) const {
@@ -39,7 +42,7 @@ SolverModel::Target SolverModel::loadTarget(const std::string& path) const {
   t.path = path;
   t.base = sim::loadScenario(path, options_.settings);
   // The text is part of the cache key: an edited scenario must not reuse old runs.
-  t.label = std::filesystem::absolute(path).lexically_normal().string();
+  t.label = scenarioLabel(path);
   t.text = fileContents(path);
   for (std::size_t k = 0; k < t.base.target.layers.size(); ++k)
     if (strengthModelOf(t, k) == "bilinear") t.rateHardened.push_back(k);
@@ -64,9 +67,7 @@ SolverModel::SolverModel(const std::string& scenarioPath, SolverModelOptions opt
   hasDefault_ = !scenarioPath.empty();
   if (hasDefault_) targets_.push_back(loadTarget(scenarioPath));
   for (const std::string& path : otherScenarios) {
-    const std::string label = std::filesystem::absolute(path).lexically_normal().string();
-    if (std::none_of(targets_.begin(), targets_.end(), [&](const Target& t) { return t.label == label; }))
-      targets_.push_back(loadTarget(path));
+    if (!findTarget(path)) targets_.push_back(loadTarget(path));
   }
   if (targets_.empty())
     throw InputError(InputLocation::flag("--scenario"), "no scenario to run the shots on",
@@ -117,12 +118,13 @@ SolverModel::SolverModel(const std::string& scenarioPath, SolverModelOptions opt
                           "every layer made of " + material + " has s times its flow stress" +
                               (targets_.size() > 1 ? ", in every scenario" : ""),
                           {"s", "", "strength_factor", 0.5, 2.0, 1.0}});
-  std::string fabrics;
+  std::vector<std::string> fabricNames;
   for (const Target& t : targets_)
-    for (std::size_t k : t.rateHardened) {
-      const std::string& name = t.base.target.layers[k].name;
-      if (fabrics.find(name) == std::string::npos) fabrics += (fabrics.empty() ? "" : ", ") + name;
-    }
+    for (std::size_t k : t.rateHardened)
+      if (std::find(fabricNames.begin(), fabricNames.end(), t.base.target.layers[k].name) == fabricNames.end())
+        fabricNames.push_back(t.base.target.layers[k].name);
+  std::string fabrics;
+  for (const std::string& name : fabricNames) fabrics += (fabrics.empty() ? "" : ", ") + name;
   if (!fabrics.empty())
     effects_.push_back({"rate_hardening",
                         "the fabric layers (" + fabrics + ") harden with strain rate: flow stress x (1 + C ln max(rate / " +
@@ -158,14 +160,19 @@ std::string SolverModel::describe() const {
   return s;
 }
 
+const SolverModel::Target* SolverModel::findTarget(const std::string& scenario) const {
+  const std::string label = scenarioLabel(scenario);
+  for (const Target& t : targets_)
+    if (t.label == label) return &t;
+  return nullptr;
+}
+
 const SolverModel::Target& SolverModel::targetOf(const MeasuredCase& c) const {
   if (c.scenario.empty()) {
     if (!hasDefault_) throw std::logic_error("case " + c.id + " has no scenario (SolverModel::check lets none through)");
     return targets_.front();
   }
-  const std::string label = std::filesystem::absolute(c.scenario).lexically_normal().string();
-  for (const Target& t : targets_)
-    if (t.label == label) return t;
+  if (const Target* t = findTarget(c.scenario)) return *t;
   throw std::logic_error("case " + c.id + "'s scenario " + c.scenario + " was not given to the SolverModel");
 }
 
@@ -196,8 +203,7 @@ void SolverModel::check(const MeasuredData& data) const {
                        "case '" + c.id + "' names no scenario and no --scenario was given",
                        "a scenario file in the scenario column, or --scenario FILE for such cases");
     if (c.scenario.empty()) continue;
-    const std::string label = std::filesystem::absolute(c.scenario).lexically_normal().string();
-    if (std::none_of(targets_.begin(), targets_.end(), [&](const Target& t) { return t.label == label; }))
+    if (!findTarget(c.scenario))
       throw InputError(InputLocation::file(data.source, c.line, "scenario"),
                        "case '" + c.id + "'s scenario " + c.scenario + " is not one the model was given",
                        "the scenarios of scenariosNamedBy(data)");

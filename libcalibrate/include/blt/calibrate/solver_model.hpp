@@ -101,6 +101,7 @@ class SolverModel : public Model {
     std::vector<std::size_t> rateHardened;  // the layers rate_hardening acts on (bilinear flow curves)
   };
   Target loadTarget(const std::string& path) const;
+  const Target* findTarget(const std::string& scenario) const;  // nullptr when not one of targets_
   const Target& targetOf(const MeasuredCase& c) const;
   MeasuredCase withDiameter(const MeasuredCase& c) const;  // a case without a diameter gets its scenario's
   static std::size_t layerIndex(const Target& t, const std::string& label);  // npos when not a layer
