@@ -195,6 +195,48 @@ class TwinEffectModel : public Model {
 };
 }  // namespace
 
+namespace {
+// Predicts the same perforating share for every case: what the solver averaged over alignments gives near the limit.
+class PerforatingShareModel : public Model {
+ public:
+  explicit PerforatingShareModel(double share) : share_(share) {}
+  std::string describe() const override { return "perforating-share stand-in"; }
+  const std::vector<Effect>& effects() const override { return effects_; }
+  void check(const MeasuredData&) const override {}
+  std::vector<Prediction> predict(const MeasuredData&, const std::vector<std::size_t>& cases, const EffectSetting&) override {
+    Prediction p;
+    p.perforatedFraction = share_;
+    p.perforated = share_ >= 0.5;
+    return std::vector<Prediction>(cases.size(), p);
+  }
+  int suggestedGridPoints() const override { return 3; }
+  int suggestedRefineSteps() const override { return 0; }
+
+ private:
+  double share_;
+  std::vector<Effect> effects_;
+};
+}  // namespace
+
+TEST_CASE("calibrate: synthetic outcomes from a perforating share p are perforated with probability p") {
+  std::ostringstream csv;
+  csv << "velocity_m_s,perforated\n";
+  const int n = 2000;
+  for (int k = 0; k < n; ++k) csv << 100 + k << ",N\n";
+  const MeasuredData shape = parse(csv.str());
+  SyntheticOptions options;
+  options.seed = 3;
+  for (double share : {0.3, 0.0, 1.0}) {
+    CAPTURE(share);
+    PerforatingShareModel model(share);
+    const MeasuredData data = synthesize(model, shape, options);
+    double perforated = 0;
+    for (const Observation& o : data.observations) perforated += o.value;
+    // Binomial: within 4 standard deviations of n p (exactly n p at p = 0 and 1).
+    CHECK(std::abs(perforated - n * share) <= 4 * std::sqrt(n * share * (1 - share)));
+  }
+}
+
 TEST_CASE("calibrate: when two effects explain the data equally, the second is reported as also accepted") {
   // Data: v_r = V/2 + 20 m/s with seeded scatter of 1 m/s; both effects fit a shift of about 20.
   SeededGaussian gauss(11);

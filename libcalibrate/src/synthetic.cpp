@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <numeric>
+#include <random>
 
 #include "blt/calibrate/calibrate.hpp"
 #include "blt/core/seeded_gaussian.hpp"
@@ -16,11 +17,20 @@ MeasuredData synthesize(Model& model, const MeasuredData& shape, const Synthetic
   out.source = shape.source + " (synthetic: " + model.describe() +
                (options.setting.effect ? ", " + options.setting.effect->name : std::string(", no effect")) + ")";
   SeededGaussian gauss(options.seed);
+  // A model that gives a perforating share (the solver over grid alignments) draws the outcome from it: a shot
+  // that perforates at half the alignments is a coin flip, not the majority's verdict. Own engine, so the
+  // scatter of the other observations is the same whether or not outcomes are drawn.
+  std::mt19937 draw(options.seed ^ 0x9e3779b9u);
   for (Observation& o : out.observations) {
     const Prediction& p = predicted[o.caseIndex];
     const double v = predictedValue(o, p);
     switch (o.kind) {
-      case ObservationKind::outcome: o.value = p.perforated ? 1.0 : 0.0; break;
+      case ObservationKind::outcome:
+        if (p.perforatedFraction && *p.perforatedFraction > 0 && *p.perforatedFraction < 1)
+          o.value = (static_cast<double>(draw()) + 0.5) / 4294967296.0 < *p.perforatedFraction ? 1.0 : 0.0;
+        else
+          o.value = p.perforated ? 1.0 : 0.0;
+        break;
       case ObservationKind::residualVelocity:
         o.value = v > 0 ? std::max(v + options.velocityScatter * gauss(), 0.01) : 0.0;
         break;

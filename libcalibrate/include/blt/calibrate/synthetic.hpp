@@ -17,7 +17,8 @@ struct SyntheticOptions {
   std::uint32_t seed = 1;
 };
 
-// Outcomes stay binary (no scatter). Hole sizes and residual velocities stay positive.
+// Outcomes stay binary: the model's verdict, or, where it gives a perforating share p strictly between 0 and 1,
+// perforated with probability p (seeded). Hole sizes and residual velocities stay positive.
 MeasuredData synthesize(Model& model, const MeasuredData& shape, const SyntheticOptions& options);
 
 }  // namespace blt::calibrate
