@@ -67,7 +67,7 @@ void registerCalibrateCommand(CLI::App& app) {
       "      --scenario data/scenarios/fabric_al_original.toml --effects interlayer_gaps,thickness:outer \\\n"
       "      --set resolution.particle_spacing=0.2mm --set resolution.cell_size=0.4mm --report seed000");
   struct State {
-    std::string measured, scenario, model, report, cache;
+    std::string measured, scenario, model, report, cache, reuseRuns;
     std::vector<std::string> effects, settings;
     std::string aText = "1", pText = "2", folds = "0", grid = "0", refine = "-1", minImprovement = "0.1", minT = "2",
                 pairedOver = "observations";
@@ -97,6 +97,10 @@ void registerCalibrateCommand(CLI::App& app) {
                 "solver model: an outcome the model gets wrong counts by how far: ln(d/d_c), d_c bisected on the "
                 "diameter to 3 % (about 5 runs a wrong case), instead of 1");
   cmd->add_option("--jobs", s->jobs, "solver model: runs at once (default 1)")->type_name("N");
+  cmd->add_option("--reuse-runs", s->reuseRuns,
+                  "solver model: take runs from a campaign's database (blt campaign run --db) where its campaign ran "
+                  "the same scenario with the same --set settings and the same build")
+      ->type_name("DB");
   cmd->add_option("--alignments", s->alignments,
                   "solver model: each prediction the mean of N runs on grids shifted by k/N of a cell (the outcome "
                   "then the share that perforates; N times the runs; default 1; not with --outcome-margin)")
@@ -161,6 +165,7 @@ void registerCalibrateCommand(CLI::App& app) {
       so.cacheFile = s->cache.empty() ? (std::filesystem::path(s->report) / "runs.jsonl").string() : s->cache;
       so.jobs = static_cast<int>(positiveNumber(s->jobs, "--jobs", false));
       so.alignments = static_cast<int>(positiveNumber(s->alignments, "--alignments", false));
+      so.reuseDatabase = s->reuseRuns;
       so.threads = static_cast<int>(positiveNumber(s->threads, "--threads", false));
       so.outcomeMargin = s->outcomeMargin;
       if (!s->json) so.log = [](const std::string& line) { std::cerr << "  run: " << line << "\n"; };

@@ -664,6 +664,55 @@ TEST_CASE("calibrate: averaged over grid alignments, a prediction is the mean of
   fs::remove_all(dir);
 }
 
+TEST_CASE("calibrate: runs a bisection campaign made are taken from its database instead of simulated") {
+  const fs::path dir = tempDir("reuse");
+  fs::create_directories(dir);
+  const std::string scenario = std::string(BLT_DATA_DIR) + "/scenarios/fabric_al_original.toml";
+  {
+    std::ofstream campaign(dir / "c.toml");
+    campaign << "name = \"c\"\nscenario = \"" << scenario << "\"\n"
+             << "settings = [\"resolution.particle_spacing=0.2mm\", \"resolution.cell_size=0.4mm\"]\n"
+             << "[bisect]\nvariable = \"diameter\"\nlower = \"0.6 mm\"\nupper = \"2.0 mm\"\ntolerance = \"0.5 mm\"\n"
+             << "[grid]\nvelocity = [\"4.03 km/s\"]\n";
+  }
+  const std::string db = (dir / "runs.sqlite").string();
+  const BltRun made = runBlt("campaign run '" + (dir / "c.toml").string() + "' --db '" + db + "' --quiet");
+  REQUIRE_MESSAGE(made.status == 0, made.output);
+  // The campaign's first bracket end, 2.0 mm at 4.03 km/s, as a measured shot with the outer hole.
+  const MeasuredData data = parse("diameter_mm,velocity_km_s,layer,hole_h_mm\n2.0,4.03,outer,1.8\n");
+  SolverModelOptions options;
+  options.settings = {"resolution.particle_spacing=0.2mm", "resolution.cell_size=0.4mm"};
+  options.cacheFile = (dir / "cache.jsonl").string();
+  options.reuseDatabase = db;
+  Prediction reused;
+  {
+    SolverModel model(scenario, options);
+    reused = model.predict(data, {0}, {})[0];
+    CHECK(model.runsMade() == 0);
+    CHECK(model.runsReused() == 1);
+    // Another setting is not the campaign's run.
+    model.predict(data, {0}, {&findEffect(model, "interlayer_gaps", {}), 1e-3});
+    CHECK(model.runsMade() == 1);
+  }
+  // The same shot simulated here gives the same prediction (same build, same inputs).
+  options.reuseDatabase.clear();
+  options.cacheFile.clear();
+  SolverModel fresh(scenario, options);
+  const Prediction simulated = fresh.predict(data, {0}, {})[0];
+  CHECK(fresh.runsMade() == 1);
+  CHECK(simulated.perforated == reused.perforated);
+  CHECK(simulated.holes.at(0).second.first == doctest::Approx(reused.holes.at(0).second.first));
+  // Other --set settings than the campaign's: nothing to reuse.
+  options.reuseDatabase = db;
+  options.settings = {"resolution.particle_spacing=0.2mm", "resolution.cell_size=0.4mm", "run.max_time=8us"};
+  SolverModel other(scenario, options);
+  other.predict(data, {0}, {});
+  CHECK(other.runsReused() == 0);
+  options.reuseDatabase = (dir / "missing.sqlite").string();
+  CHECK(messageOf([&] { SolverModel(scenario, options); }).find("no run database") != std::string::npos);
+  fs::remove_all(dir);
+}
+
 TEST_CASE("calibrate: solver runs are kept in the run cache and not made again") {
   const std::string dir = tempDir("cache");
   const std::string scenario = std::string(BLT_DATA_DIR) + "/scenarios/fabric_al_original.toml";

@@ -11,7 +11,9 @@
 #include <sstream>
 #include <thread>
 
+#include "blt/campaign/database.hpp"
 #include "blt/core/error.hpp"
+#include "blt/core/units.hpp"
 #include "blt/sim/impact.hpp"
 
 namespace blt::calibrate {
@@ -148,6 +150,7 @@ SolverModel::SolverModel(const std::string& scenarioPath, SolverModelOptions opt
                         "path, in the plane of incidence (3D runs)",
                         {"psi", "deg", "yaw_rad", 0.0, 10 * deg, 0.0}});
   cache_ = std::make_unique<sim::RunCache>(options_.cacheFile);
+  if (!options_.reuseDatabase.empty()) loadReusableRuns();
 }
 
 bool turnsRunsThreeD(const std::string& effect) { return effect == "obliquity" || effect == "yaw"; }
@@ -341,19 +344,86 @@ std::string SolverModel::fragmentationCard(const Target& t, double factor) const
   return writeDerivedCard(m, t.base.projectile.material, "failure x", factor);
 }
 
+namespace {
+
+// The fields of a run's summary the cache keeps and the predictions read.
+nlohmann::json keptFields(const nlohmann::json& summary) {
+  return {{"perforated", summary.at("perforated")},
+          {"residual_velocity_m_s", summary.at("residual_velocity_m_s")},
+          {"layers", summary.at("layers")},
+          {"hole_size_mm", summary.at("hole_size_mm")},
+          {"status", summary.at("status")},
+          {"wall_time_s", summary.at("wall_time_s")}};
+}
+
+bool sameValue(double a, double b) { return std::abs(a - b) <= 1e-8 * std::max(std::abs(a), std::abs(b)) + 1e-15; }
+
+}  // namespace
+
+void SolverModel::loadReusableRuns() {
+  if (!std::filesystem::is_regular_file(options_.reuseDatabase))
+    throw InputError(InputLocation::flag("--reuse-runs"), "no run database " + options_.reuseDatabase,
+                     "a campaign's SQLite file (blt campaign run --db FILE)");
+  const campaign::RunDatabase db(options_.reuseDatabase);
+  const std::string fingerprint = "+model." + sim::modelFingerprint();
+  for (const campaign::CampaignRecord& c : db.campaigns()) {
+    const std::string hash = c.definition.value("scenario_hash", std::string());
+    const auto target = std::find_if(targets_.begin(), targets_.end(),
+                                     [&](const Target& t) { return sim::scenarioHash(t.text, {}) == hash; });
+    if (target == targets_.end()) continue;
+    std::vector<std::string> settings = c.definition.value("settings", std::vector<std::string>());
+    std::sort(settings.begin(), settings.end());
+    for (const campaign::RunRecord& r : db.runs(c.id)) {
+      const bool sameBuild = r.toolVersion.size() >= fingerprint.size() &&
+                             r.toolVersion.compare(r.toolVersion.size() - fingerprint.size(), fingerprint.size(), fingerprint) == 0;
+      if (r.state != campaign::RunState::completed || r.attempt != 0 || !sameBuild) continue;
+      try {
+        reusable_.push_back({&*target, settings, r.diameter, r.velocity, r.angle, keptFields(r.measurements)});
+      } catch (const nlohmann::json::exception&) {
+        // A run recorded without the fields a prediction needs cannot serve one.
+      }
+    }
+  }
+}
+
+std::optional<nlohmann::json> SolverModel::reusedRun(const Target& t, const std::vector<std::string>& settings) const {
+  if (reusable_.empty()) return std::nullopt;
+  double d = NAN, v = NAN, angle = NAN;
+  std::vector<std::string> rest;
+  for (const std::string& kv : settings) {
+    const auto eq = kv.find('=');
+    const std::string key = kv.substr(0, eq), text = kv.substr(eq + 1);
+    double* shot = key == "projectile.diameter" ? &d : key == "projectile.velocity" ? &v : key == "projectile.angle" ? &angle : nullptr;
+    if (shot) *shot = units::parseQuantity(text).si;
+    else rest.push_back(kv);
+  }
+  std::sort(rest.begin(), rest.end());
+  for (const ReusableRun& r : reusable_)
+    if (r.target == &t && r.settings == rest && sameValue(r.diameter, d) && sameValue(r.velocity, v) &&
+        sameValue(r.angle, angle))
+      return r.summary;
+  return std::nullopt;
+}
+
 nlohmann::json SolverModel::runOrRecall(const Target& t, const std::vector<std::string>& settings) {
   const std::string key = sim::RunCache::key(t.label, t.text, settings);
   if (auto found = cache_->find(key)) return *found;
+  if (auto reused = reusedRun(t, settings)) {
+    cache_->record(key, *reused);
+    std::lock_guard lock(mutex_);
+    ++runsReused_;
+    if (options_.log) {
+      std::string line = std::string((*reused)["perforated"].get<bool>() ? "perforated" : "stopped") + " (campaign run)";
+      for (const auto& kv : settings) line += " " + kv;
+      options_.log(line);
+    }
+    return *reused;
+  }
   const sim::ImpactScenario scenario = sim::loadScenario(t.path, settings);
   sim::ImpactRunOptions runOptions;
   runOptions.threads = options_.threads;
   const sim::ImpactResult r = sim::runImpact(scenario, runOptions);
-  nlohmann::json kept = {{"perforated", r.summary["perforated"]},
-                         {"residual_velocity_m_s", r.summary["residual_velocity_m_s"]},
-                         {"layers", r.summary["layers"]},
-                         {"hole_size_mm", r.summary["hole_size_mm"]},
-                         {"status", r.summary["status"]},
-                         {"wall_time_s", r.summary["wall_time_s"]}};
+  nlohmann::json kept = keptFields(r.summary);
   cache_->record(key, kept);
   std::lock_guard lock(mutex_);
   ++runsMade_;

@@ -39,6 +39,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -61,6 +62,11 @@ struct SolverModelOptions {
   // the outcome becomes the share that perforates, residual velocity and holes the means. Near the limit a
   // single run's verdict turns with the alignment (issue 5); N runs a case smooth that. Not with outcomeMargin.
   int alignments = 1;
+  // A bisection campaign's run database (blt/campaign/database.hpp) to take runs from before simulating: a
+  // completed run of the campaign's own resolution is reused when its campaign ran the same scenario text with the
+  // same --set settings (as strings) and the same model fingerprint, at the same diameter, velocity and angle.
+  // Read only. Empty: none.
+  std::string reuseDatabase;
   double marginTolerance = 0.03;      // the bisection stops when d_hi / d_lo <= 1 + this
   int marginSteps = 6;                // at most this many factors of 1.25 searched for the other side
   std::function<void(const std::string&)> log;  // told each run as it ends
@@ -89,8 +95,10 @@ class SolverModel : public Model {
 
   // The settings of one run: the base settings, the case's shot, the effect's.
   std::vector<std::string> settingsFor(const MeasuredCase& c, const EffectSetting& setting) const;
-  // Runs made (not taken from the cache) since construction.
+  // Runs made (not taken from the cache or the database) since construction.
   int runsMade() const { return runsMade_; }
+  // Runs taken from reuseDatabase since construction (then kept in the cache).
+  int runsReused() const { return runsReused_; }
 
  private:
   // One scenario the shots are run on, with what the run cache and the effects need of it.
@@ -121,6 +129,16 @@ class SolverModel : public Model {
   // so Johnson-Cook's usual 1 1/s.
   static constexpr double kFabricReferenceRate = 1.0;
   nlohmann::json runOrRecall(const Target& t, const std::vector<std::string>& settings);
+  // A campaign run of reuseDatabase, as its shot and its other settings.
+  struct ReusableRun {
+    const Target* target;
+    std::vector<std::string> settings;  // the campaign's --set settings, sorted
+    double diameter, velocity, angle;   // SI
+    nlohmann::json summary;             // the fields the cache keeps
+  };
+  void loadReusableRuns();
+  std::optional<nlohmann::json> reusedRun(const Target& t, const std::vector<std::string>& settings) const;
+  std::vector<ReusableRun> reusable_;
   // ln(d/d_c) of the model for case c under `setting`, from the run at the measured diameter (`atMeasured`).
   double margin(const MeasuredCase& c, const EffectSetting& setting, bool perforatedAtMeasured);
 
@@ -131,6 +149,7 @@ class SolverModel : public Model {
   std::unique_ptr<sim::RunCache> cache_;
   std::mutex mutex_;
   int runsMade_ = 0;
+  int runsReused_ = 0;
 };
 
 }  // namespace blt::calibrate
