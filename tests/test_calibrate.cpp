@@ -276,6 +276,7 @@ class OverpredictedHoleModel : public Model {
   std::vector<Prediction> predict(const MeasuredData& data, const std::vector<std::size_t>& cases,
                                   const EffectSetting& setting) override {
     const double s = setting.effect ? setting.value : 0.0;
+    if (setting.effect && s == 0.0) ++neutralCalls;
     const double hole = trueHole * (1 + 1.5 * (1 - s));
     std::vector<Prediction> out;
     for (std::size_t c : cases) {
@@ -288,6 +289,7 @@ class OverpredictedHoleModel : public Model {
   }
   int suggestedGridPoints() const override { return 21; }
   int suggestedRefineSteps() const override { return 20; }
+  int neutralCalls = 0;  // predictions asked with the effect at its neutral value (the base's, asked as such)
 
  private:
   std::vector<Effect> effects_{{"shrink", "holes shrink", {"s", "", "shrink", 0, 1, 0}}};
@@ -318,6 +320,7 @@ TEST_CASE("calibrate: holes measured on 2 of 13 shots: the paired test over obse
   CHECK(byObservation.winningFit()->parameter == doctest::Approx(1.0).epsilon(0.05));
   CHECK(byObservation.winningFit()->relativeImprovement > 0.9);
   CHECK(toJson(byObservation, data)["rule"]["paired_over"] == "observations");
+  CHECK(model.neutralCalls == 0);  // the neutral value is the base model, not a run with the effect at 0
 
   // Over cases the 11 shots without holes have d_c = 0: with two near-equal gains among 13 values,
   // t = mean / (sd / sqrt(13)) is about 1.48 whatever the gains are, below 2.

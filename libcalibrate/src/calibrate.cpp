@@ -170,7 +170,9 @@ class Memo {
     for (std::size_t c : cases)
       if (!known.count(c)) missing.push_back(c);
     if (!missing.empty()) {
-      auto predicted = model_.predict(data_, missing, {effect_, value});
+      // At its neutral value the effect is off: the base model's setting, whose runs a solver already has.
+      const EffectSetting setting = value == effect_->parameter.neutral ? EffectSetting{} : EffectSetting{effect_, value};
+      auto predicted = model_.predict(data_, missing, setting);
       for (std::size_t k = 0; k < missing.size(); ++k) known.emplace(missing[k], std::move(predicted[k]));
     }
     std::vector<const Prediction*> out(data_.cases.size(), nullptr);
