@@ -161,7 +161,12 @@ class Report {
   }
 
   void table1();
-  void table1Alignments(const csv::Table& t, const std::vector<bool>& measured, const std::vector<bool>& atZero);
+  struct Table1Shot {
+    std::string id;
+    double diameter, velocity;  // m, m/s
+    bool measured, correctedAtZero;  // perforated in the test; by the corrected model at grid offset 0
+  };
+  void table1Alignments(const std::vector<Table1Shot>& shots);
   void table5();
   void table6();
   void table7();
@@ -247,7 +252,7 @@ void Report::table1() {
   for (const auto& m : models) md_ << " " << m.name << " |";
   md_ << "\n|---|---|---|---|---|---|---|\n";
   std::vector<int> right(models.size(), 0);
-  std::vector<bool> measuredOutcomes, correctedOutcomes;
+  std::vector<Table1Shot> shots;
   json rows = json::array();
   svg::Series ok, wrong;
   ok.label = "corrected model right";
@@ -272,8 +277,7 @@ void Report::table1() {
       row[std::string(models[m].name) + " perforated"] = predicted[m];
     }
     md_ << "\n";
-    measuredOutcomes.push_back(measured);
-    correctedOutcomes.push_back(predicted[0]);
+    shots.push_back({id, d, v, measured, predicted[0]});
     svg::Series& s = predicted[0] == measured ? ok : wrong;
     s.x.push_back(v / 1e3);
     s.y.push_back(d * 1e3);
@@ -298,13 +302,13 @@ void Report::table1() {
   figure("table1_outcomes.svg", p);
   sections_["table1"] = {{"tests", n}, {"right", counts}, {"right_corrected", right[0]}, {"target_right", kTable1RightTarget},
                          {"met", right[0] >= kTable1RightTarget}, {"cases", rows}};
-  if (o_.alignments > 1) table1Alignments(t, measuredOutcomes, correctedOutcomes);
+  if (o_.alignments > 1) table1Alignments(shots);
 }
 
 // The corrected model's Table 1 again with the grid shifted along the normal by k/N of a cell
 // (resolution.grid_offset): near the limit the verdict turns with the alignment of grid and particles, and the
 // spread of the count says how much of "11 of 13" is the discretisation. Offset 0 is the table above.
-void Report::table1Alignments(const csv::Table& t, const std::vector<bool>& measured, const std::vector<bool>& atZero) {
+void Report::table1Alignments(const std::vector<Table1Shot>& shots) {
   const int n = o_.alignments;
   std::vector<double> offsets;
   for (int k = 0; k < n; ++k) offsets.push_back(static_cast<double>(k) / n);
@@ -317,32 +321,30 @@ void Report::table1Alignments(const csv::Table& t, const std::vector<bool>& meas
   md_ << "\n";
   std::vector<int> rightAt(n, 0);
   json cases = json::array();
-  for (std::size_t r = 0; r < t.rowCount(); ++r) {
-    const std::string id = t.text(r, t.column("test_id"));
-    const double d = t.quantity(r, t.column("diameter_mm"), "mm"), v = t.quantity(r, t.column("velocity_km_s"), "km/s");
-    md_ << "| " << id << " | " << (measured[r] ? "P" : "S") << " |";
+  for (const Table1Shot& test : shots) {
+    md_ << "| " << test.id << " | " << (test.measured ? "P" : "S") << " |";
     int right = 0;
     json verdicts = json::array();
     for (int k = 0; k < n; ++k) {
-      bool perforated = atZero[r];
+      bool perforated = test.correctedAtZero;
       if (k > 0) {
-        std::vector<std::string> s = shot(d, v);
+        std::vector<std::string> s = shot(test.diameter, test.velocity);
         s.push_back("resolution.grid_offset=" + fmt(offsets[k], "%.6g"));
         perforated = log_.run("scenarios/fabric_al_corrected.toml", s,
-                              "Table 1 test " + id + ", corrected, grid offset " + fmt(offsets[k]))["perforated"];
+                              "Table 1 test " + test.id + ", corrected, grid offset " + fmt(offsets[k]))["perforated"];
       }
-      right += perforated == measured[r];
-      rightAt[k] += perforated == measured[r];
+      right += perforated == test.measured;
+      rightAt[k] += perforated == test.measured;
       verdicts.push_back(perforated);
-      md_ << " " << (perforated ? "P" : "S") << (perforated == measured[r] ? "" : "*") << " |";
+      md_ << " " << (perforated ? "P" : "S") << (perforated == test.measured ? "" : "*") << " |";
     }
     md_ << " " << right << " of " << n << " |\n";
-    cases.push_back({{"test", id}, {"perforated", verdicts}, {"right", right}});
+    cases.push_back({{"test", test.id}, {"perforated", verdicts}, {"right", right}});
   }
   const auto [least, most] = std::minmax_element(rightAt.begin(), rightAt.end());
   md_ << "\n\\* wrong. Right outcomes at each alignment: ";
   for (int k = 0; k < n; ++k) md_ << (k ? ", " : "") << rightAt[k];
-  md_ << " of " << t.rowCount() << " (" << *least << " to " << *most << "); the target is judged at offset 0, as "
+  md_ << " of " << shots.size() << " (" << *least << " to " << *most << "); the target is judged at offset 0, as "
       << "above, and holds at " << std::count_if(rightAt.begin(), rightAt.end(), [](int c) { return c >= kTable1RightTarget; }) << " of "
       << n << " alignments.\n";
   sections_["table1"]["alignments"] = {{"grid_offsets", offsets}, {"right", rightAt}, {"cases", cases}};

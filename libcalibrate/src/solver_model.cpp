@@ -80,8 +80,9 @@ SolverModel::SolverModel(const std::string& scenarioPath, SolverModelOptions opt
     for (const auto& layer : t.base.target.layers) names.push_back(layer.name);
     return names;
   };
+  const std::vector<std::string> firstNames = layerNames(first);
   const bool sameLayers = std::all_of(targets_.begin(), targets_.end(),
-                                      [&](const Target& t) { return layerNames(t) == layerNames(first); });
+                                      [&](const Target& t) { return layerNames(t) == firstNames; });
   const std::size_t layers = first.base.target.layers.size();
   constexpr double mm = 1e-3, deg = std::numbers::pi / 180;
   if (sameLayers) {
