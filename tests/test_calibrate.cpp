@@ -282,7 +282,7 @@ class OverpredictedHoleModel : public Model {
     for (std::size_t c : cases) {
       Prediction p;
       p.perforated = data.cases[c].id.back() == 'p';
-      p.holes = {{"outer", {hole, hole}}, {"plate", {hole, hole}}};
+      p.holes = {{"outer", {hole, hole}}, {"mli", {hole, hole}}, {"plate", {hole, hole}}};
       out.push_back(p);
     }
     return out;
@@ -339,6 +339,36 @@ TEST_CASE("calibrate: holes on 2 of 13 shots made by the base with scatter only 
     CAPTURE(seed);
     const CalibrationResult r = blt::calibrate::calibrate(model, holesOnTwoShots(0.0, 0.05, seed));
     CHECK(r.winningFit() == nullptr);
+  }
+}
+
+TEST_CASE("calibrate: synthetic data can measure holes in layers the template lacks, the template's own unchanged") {
+  const MeasuredData shape = holesOnTwoShots(1.0, 0.0, 7);
+  const MeasuredData wider = withHolesInLayers(shape, {"outer", "mli", "plate"});
+  // Two shots with holes, one more layer, two extents: 4 added after the template's 13 outcomes and 8 extents.
+  REQUIRE(wider.observations.size() == shape.observations.size() + 4);
+  for (std::size_t i = 0; i < shape.observations.size(); ++i) {
+    CHECK(wider.observations[i].caseIndex == shape.observations[i].caseIndex);
+    CHECK((wider.observations[i].kind == shape.observations[i].kind));
+    CHECK(wider.observations[i].layer == shape.observations[i].layer);
+  }
+  for (std::size_t i = shape.observations.size(); i < wider.observations.size(); ++i) {
+    const Observation& o = wider.observations[i];
+    CHECK(o.layer == "mli");
+    CHECK((o.kind == ObservationKind::holeHorizontal || o.kind == ObservationKind::holeVertical));
+    const std::string& id = wider.cases[o.caseIndex].id;
+    CHECK((id == "c3p" || id == "c5p"));
+  }
+  // The template's observations draw the same scatter with or without the added ones.
+  OverpredictedHoleModel model;
+  SyntheticOptions options;
+  options.holeScatter = 0.05;
+  const MeasuredData a = synthesize(model, shape, options), b = synthesize(model, wider, options);
+  for (std::size_t i = 0; i < a.observations.size(); ++i) CHECK(a.observations[i].value == b.observations[i].value);
+  for (std::size_t i = a.observations.size(); i < b.observations.size(); ++i) {
+    CHECK(b.observations[i].value > 0);
+    CHECK(b.observations[i].value != doctest::Approx(trueHole * 2.5).epsilon(1e-12));  // scattered
+    CHECK(b.observations[i].value == doctest::Approx(trueHole * 2.5).epsilon(0.25));  // 5 sigma
   }
 }
 

@@ -43,4 +43,24 @@ MeasuredData synthesize(Model& model, const MeasuredData& shape, const Synthetic
   return out;
 }
 
+MeasuredData withHolesInLayers(const MeasuredData& shape, const std::vector<std::string>& layers) {
+  const auto isHole = [](ObservationKind k) {
+    return k == ObservationKind::holeHorizontal || k == ObservationKind::holeVertical;
+  };
+  MeasuredData out = shape;
+  std::vector<std::size_t> casesWithHoles;
+  for (const Observation& o : shape.observations)
+    if (isHole(o.kind) && std::find(casesWithHoles.begin(), casesWithHoles.end(), o.caseIndex) == casesWithHoles.end())
+      casesWithHoles.push_back(o.caseIndex);
+  for (std::size_t c : casesWithHoles)
+    for (const std::string& layer : layers)
+      for (ObservationKind kind : {ObservationKind::holeHorizontal, ObservationKind::holeVertical}) {
+        const bool measured = std::any_of(shape.observations.begin(), shape.observations.end(), [&](const Observation& o) {
+          return o.caseIndex == c && o.kind == kind && o.layer == layer;
+        });
+        if (!measured) out.observations.push_back({c, kind, 0.0, layer, shape.cases[c].line});
+      }
+  return out;
+}
+
 }  // namespace blt::calibrate
