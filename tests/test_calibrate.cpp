@@ -355,7 +355,7 @@ TEST_CASE("calibrate: synthetic data can measure holes in layers the template la
   for (std::size_t i = shape.observations.size(); i < wider.observations.size(); ++i) {
     const Observation& o = wider.observations[i];
     CHECK(o.layer == "mli");
-    CHECK((o.kind == ObservationKind::holeHorizontal || o.kind == ObservationKind::holeVertical));
+    CHECK(isHole(o.kind));
     const std::string& id = wider.cases[o.caseIndex].id;
     CHECK((id == "c3p" || id == "c5p"));
   }

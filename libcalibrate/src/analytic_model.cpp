@@ -39,7 +39,7 @@ std::string AnalyticModel::describe() const {
 
 void AnalyticModel::check(const MeasuredData& data) const {
   for (const Observation& o : data.observations) {
-    if (o.kind == ObservationKind::holeHorizontal || o.kind == ObservationKind::holeVertical)
+    if (isHole(o.kind))
       throw InputError(InputLocation::file(data.source, o.line, o.kind == ObservationKind::holeHorizontal ? "hole_h_mm" : "hole_v_mm"),
                        "the analytical model " + describe() + " predicts no hole sizes",
                        "outcomes and residual velocities, or a --scenario for the solver model");

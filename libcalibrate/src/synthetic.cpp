@@ -44,9 +44,6 @@ MeasuredData synthesize(Model& model, const MeasuredData& shape, const Synthetic
 }
 
 MeasuredData withHolesInLayers(const MeasuredData& shape, const std::vector<std::string>& layers) {
-  const auto isHole = [](ObservationKind k) {
-    return k == ObservationKind::holeHorizontal || k == ObservationKind::holeVertical;
-  };
   MeasuredData out = shape;
   std::vector<std::size_t> casesWithHoles;
   for (const Observation& o : shape.observations)

@@ -28,6 +28,10 @@ namespace blt::calibrate {
 enum class ObservationKind { outcome, residualVelocity, holeHorizontal, holeVertical };
 // "outcome", "residual_velocity", "hole_h", "hole_v": JSON keys and report headings.
 const char* toString(ObservationKind kind);
+// A hole extent, either of the two.
+inline bool isHole(ObservationKind kind) {
+  return kind == ObservationKind::holeHorizontal || kind == ObservationKind::holeVertical;
+}
 // SI unit and the unit shown in reports: "" for outcomes, "m/s" for velocities, "mm" for holes.
 const char* displayUnit(ObservationKind kind);
 
