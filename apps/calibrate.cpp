@@ -194,10 +194,12 @@ void registerCalibrateCommand(CLI::App& app) {
                 << withUnit(w->parameter, w->effect.parameter.unit) << "\n";
     else
       std::cout << "no effect found\n";
-    if (!result.alsoAccepted.empty()) {
-      std::cout << "  also accepted (the data do not single out one effect):";
-      for (std::size_t i : result.alsoAccepted) std::cout << " " << result.ranking[i].effect.name;
-      std::cout << "\n";
+    for (std::size_t i : result.alsoAccepted) {
+      const cal::EffectFit& f = result.ranking[i];
+      const bool rival = f.tAgainstWinner < result.options.minTStatistic;
+      std::cout << "  also accepted: " << f.effect.name << " (t " << number(f.tAgainstWinner) << " against "
+                << w->effect.name << ": "
+                << (rival ? "the data do not tell the two apart" : "significantly worse") << ")\n";
     }
     std::cout << "  error before " << number(result.before.combined) << ", after "
               << number(w ? w->fitted.combined : result.before.combined) << "; held out before "
@@ -227,6 +229,9 @@ struct BenchCalibrateOptions {
   // "measured": holes where seed 000 Table 5 has them (outer layer and plate); "every-layer": the same two shots'
   // holes in every layer of the target, which a test cannot give but synthetic data can.
   std::string holes = "measured";
+  // A folder for the runs, kept, whose run cache a later bench reuses (the runs of both --holes choices are the
+  // same simulations); empty: a fresh temporary folder, removed unless keep.
+  std::string runs;
   bool json = false, keep = false;
 };
 
@@ -239,8 +244,10 @@ void benchCalibrate(const BenchCalibrateOptions& o) {
     for (const auto& layer : sim::loadScenario(scenario).target.layers) layers.push_back(layer.name);
     shape = cal::withHolesInLayers(shape, layers);
   }
-  const fs::path dir = fs::temp_directory_path() /
-                       ("blt_bench_calibrate_" + std::to_string(::getpid()) + "_" + std::to_string(std::time(nullptr)));
+  const fs::path dir = !o.runs.empty() ? fs::path(o.runs)
+                                        : fs::temp_directory_path() / ("blt_bench_calibrate_" + std::to_string(::getpid()) +
+                                                                       "_" + std::to_string(std::time(nullptr)));
+  const bool keep = o.keep || !o.runs.empty();
   fs::create_directories(dir);
   cal::SolverModelOptions so;
   so.settings = {"resolution.particle_spacing=" + o.spacing, "resolution.cell_size=" + o.cell};
@@ -297,13 +304,22 @@ void benchCalibrate(const BenchCalibrateOptions& o) {
                           {"wall_time_s", seconds},
                           {"met", rightEffect && rightValue}};
     if (check.effect) row["true_gap_mm"] = o.gap * 1e3;
+    nlohmann::json rivals = nlohmann::json::array();
+    std::string rivalText;
+    for (std::size_t i : result.indistinguishable()) {
+      rivals.push_back(result.ranking[i].effect.name);
+      rivalText += (rivalText.empty() ? "" : ", ") + result.ranking[i].effect.name + " (t " +
+                   number(result.ranking[i].tAgainstWinner, 2) + ")";
+    }
     if (w) {
       row["fitted_" + w->effect.parameter.jsonKey] = w->parameter;
       row["t_statistic"] = w->tStatistic;
+      row["indistinguishable_from"] = rivals;
     }
     if (!o.json) {
       std::printf("%s: named %s", check.name.c_str(), named.c_str());
       if (w) std::printf(" = %s (t %.2f)", withUnit(w->parameter, w->effect.parameter.unit).c_str(), w->tStatistic);
+      if (!rivalText.empty()) std::printf(", not told apart from %s", rivalText.c_str());
       if (check.effect) std::printf("; made with %s = %.3g mm", check.effect, o.gap * 1e3);
       std::printf("; held-out error %.3g -> %.3g; %d + %d runs made (others from the first check), %.1f s; %s\n", result.before.combined,
                   w ? w->heldoutError : result.before.combined, generated, model.runsMade() - generated, seconds,
@@ -314,7 +330,7 @@ void benchCalibrate(const BenchCalibrateOptions& o) {
     }
     rows.push_back(row);
   }
-  if (!o.keep) fs::remove_all(dir);
+  if (!keep) fs::remove_all(dir);
   else if (!o.json) std::printf("runs kept in %s\n", dir.string().c_str());
   if (o.json)
     printJson({{"scenario", scenario}, {"spacing", o.spacing}, {"cell", o.cell}, {"checks", rows}, {"all_met", allMet}});
@@ -347,6 +363,10 @@ void registerBenchCalibrateCommand(CLI::App& bench) {
                   "(the same shots' holes in every layer, which only synthetic data can have)")
       ->check(CLI::IsMember({"measured", "every-layer"}));
   cmd->add_flag("--keep", o->keep, "Keep the runs (the directory is printed)");
+  cmd->add_option("--runs", o->runs,
+                  "Folder for the runs (created if missing, kept): a run already in its cache (runs.jsonl) is not made "
+                  "again, so a second bench with the same spacing, cell, gap and alignments, e.g. the other --holes, "
+                  "makes none");
   addJsonFlag(*cmd, o->json);
   cmd->callback([o] { benchCalibrate(*o); });
 }

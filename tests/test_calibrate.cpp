@@ -196,6 +196,67 @@ class TwinEffectModel : public Model {
 }  // namespace
 
 namespace {
+// v_r = V/2 raised by `shift` (m/s), or V/2 scaled by 1 + `gain`: on data with a constant offset the shift fits
+// every case and the gain only the middle of the velocity range.
+class ShiftOrScaleModel : public Model {
+ public:
+  std::string describe() const override { return "shift-or-scale stand-in"; }
+  const std::vector<Effect>& effects() const override { return effects_; }
+  void check(const MeasuredData&) const override {}
+  std::vector<Prediction> predict(const MeasuredData& data, const std::vector<std::size_t>& cases,
+                                  const EffectSetting& setting) override {
+    std::vector<Prediction> out;
+    for (std::size_t c : cases) {
+      Prediction p;
+      p.perforated = true;
+      const double half = data.cases[c].velocity * 0.5;
+      const bool shift = setting.effect && setting.effect->name == "shift";
+      const bool scale = setting.effect && setting.effect->name == "scale";
+      p.residualVelocity = half * (scale ? 1 + setting.value : 1.0) + (shift ? setting.value : 0.0);
+      out.push_back(p);
+    }
+    return out;
+  }
+  int suggestedGridPoints() const override { return 41; }
+  int suggestedRefineSteps() const override { return 40; }
+
+ private:
+  std::vector<Effect> effects_{{"shift", "adds to v_r", {"shift", "", "shift", 0, 50, 0}},
+                               {"scale", "scales v_r", {"gain", "", "gain", 0, 0.5, 0}}};
+};
+}  // namespace
+
+TEST_CASE("calibrate: an also-accepted effect that the data tell from the winner is reported as worse, not a rival") {
+  // Data: v_r = V/2 + 20 m/s, V from 200 to 750 m/s, with 1 m/s of seeded scatter. A gain fitted to a constant
+  // offset leaves about +-7 m/s at the ends of the range: far better than the base's 20 m/s, so accepted, but
+  // worse than the shift in nearly every case.
+  SeededGaussian gauss(5);
+  std::ostringstream csv;
+  csv << "case,impact_velocity_m_s,residual_velocity_m_s\n";
+  for (int k = 0; k < 12; ++k) csv << "s" << k << "," << 200 + 50 * k << "," << 100 + 25 * k + 20 + gauss() << "\n";
+  const MeasuredData data = parse(csv.str());
+  ShiftOrScaleModel model;
+  const CalibrationResult r = blt::calibrate::calibrate(model, data);
+  REQUIRE(r.winningFit() != nullptr);
+  CHECK(r.winningFit()->effect.name == "shift");
+  CHECK(r.winningFit()->parameter == doctest::Approx(20).epsilon(0.05));
+  REQUIRE(r.alsoAccepted.size() == 1);
+  const EffectFit& scale = r.ranking[r.alsoAccepted[0]];
+  CHECK(scale.effect.name == "scale");
+  CHECK(scale.tAgainstWinner >= r.options.minTStatistic);
+  CHECK(r.indistinguishable().empty());
+  const nlohmann::json j = toJson(r, data);
+  CHECK(j["winner_singled_out"] == true);
+  CHECK(j["also_accepted_t_against_winner"].size() == 1);
+  const std::string dir = tempDir("shift_or_scale");
+  writeReport(dir, r, data);
+  std::ifstream in(dir + "/report.md");
+  const std::string md((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  CHECK(md.find("Not the only explanation") == std::string::npos);
+  CHECK(md.find("significantly worse than the winner: `scale`") != std::string::npos);
+}
+
+namespace {
 // Predicts the same perforating share for every case: what the solver averaged over alignments gives near the limit.
 class PerforatingShareModel : public Model {
  public:
@@ -252,6 +313,10 @@ TEST_CASE("calibrate: when two effects explain the data equally, the second is r
   CHECK(other.effect.name != r.winningFit()->effect.name);
   CHECK(other.parameter == doctest::Approx(r.winningFit()->parameter));
   CHECK(toJson(r, data)["also_accepted"] == nlohmann::json::array({other.effect.name}));
+  // Identical predictions: the paired t against the winner is 0, so the two are not told apart.
+  CHECK(other.tAgainstWinner == doctest::Approx(0.0));
+  CHECK(r.indistinguishable() == r.alsoAccepted);
+  CHECK(toJson(r, data)["winner_singled_out"] == false);
   const std::string dir = tempDir("twins");
   writeReport(dir, r, data);
   std::ifstream in(dir + "/report.md");

@@ -341,6 +341,7 @@ CalibrationResult calibrate(Model& model, const MeasuredData& data, const Calibr
     const std::vector<double>& before = overCases ? baseShares.share : baseShares.observationShare;
     const std::vector<double>& after = overCases ? heldout.share : heldout.observationShare;
     fit.tStatistic = pairedTStatistic(before, after);
+    fit.heldoutShares = after;
     fit.evaluations = memo.evaluations();
 
     const bool enough = fit.relativeImprovement >= options.minRelativeImprovement;
@@ -360,7 +361,17 @@ CalibrationResult calibrate(Model& model, const MeasuredData& data, const Calibr
     if (result.winner) result.alsoAccepted.push_back(i);
     else result.winner = i;
   }
+  for (std::size_t i : result.alsoAccepted)
+    result.ranking[i].tAgainstWinner =
+        pairedTStatistic(result.ranking[i].heldoutShares, result.ranking[*result.winner].heldoutShares);
   return result;
+}
+
+std::vector<std::size_t> CalibrationResult::indistinguishable() const {
+  std::vector<std::size_t> out;
+  for (std::size_t i : alsoAccepted)
+    if (!(ranking[i].tAgainstWinner >= options.minTStatistic)) out.push_back(i);
+  return out;
 }
 
 namespace {
@@ -426,6 +437,14 @@ nlohmann::json toJson(const CalibrationResult& r, const MeasuredData& data) {
     for (std::size_t i : c.alsoAccepted) names.push_back(c.ranking[i].effect.name);
     return names;
   };
+  const auto alsoAcceptedT = [](const CalibrationResult& c) {
+    nlohmann::json t = nlohmann::json::array();
+    for (std::size_t i : c.alsoAccepted) {
+      const double v = c.ranking[i].tAgainstWinner;
+      t.push_back(std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(v > 0 ? "inf" : "-inf"));
+    }
+    return t;
+  };
   nlohmann::json features = nlohmann::json::array();
   for (const auto& f : r.features) features.push_back({{"feature", f.feature}, {"correlation", f.correlation}, {"count", f.count}});
   nlohmann::json doc = {
@@ -437,6 +456,8 @@ nlohmann::json toJson(const CalibrationResult& r, const MeasuredData& data) {
       {"effect", w ? nlohmann::json(w->effect.name) : nlohmann::json("none")},
       {"no_effect_found", w == nullptr},
       {"also_accepted", alsoAcceptedNames(r)},
+      {"also_accepted_t_against_winner", alsoAcceptedT(r)},
+      {"winner_singled_out", w != nullptr && r.indistinguishable().empty()},
       {"parameters", w ? nlohmann::json{{w->effect.parameter.jsonKey, w->parameter}} : nlohmann::json::object()},
       {"error_before", r.before.combined},
       {"error_after", w ? w->fitted.combined : r.before.combined},

@@ -1,5 +1,6 @@
 #include "blt/calibrate/report.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -114,14 +115,29 @@ std::vector<std::string> writeReport(const std::string& directory, const Calibra
   if (w) {
     md << "**Effect found: `" << w->effect.name << "`** (" << w->effect.description << "), "
        << w->effect.parameter.name << " = " << withUnit(w->parameter, w->effect.parameter.unit) << ".\n\n";
-    if (!r.alsoAccepted.empty()) {
-      md << "**Not the only explanation:** also accepted ";
-      for (std::size_t k = 0; k < r.alsoAccepted.size(); ++k) {
-        const EffectFit& f = r.ranking[r.alsoAccepted[k]];
+    const std::vector<std::size_t> rivals = r.indistinguishable();
+    const auto listFits = [&](const std::vector<std::size_t>& which) {
+      for (std::size_t k = 0; k < which.size(); ++k) {
+        const EffectFit& f = r.ranking[which[k]];
         md << (k ? ", " : "") << "`" << f.effect.name << "` (" << f.effect.parameter.name << " = "
-           << withUnit(f.parameter, f.effect.parameter.unit) << ", held-out error " << num(f.heldoutError) << ")";
+           << withUnit(f.parameter, f.effect.parameter.unit) << ", held-out error " << num(f.heldoutError)
+           << ", t = " << num(f.tAgainstWinner) << " against the winner)";
       }
+    };
+    if (!rivals.empty()) {
+      md << "**Not the only explanation:** also accepted, and not significantly worse than the winner (paired t "
+            "of their held-out errors below "
+         << num(r.options.minTStatistic) << "): ";
+      listFits(rivals);
       md << ". The data do not single out one effect; a case where their predictions differ would.\n\n";
+    }
+    std::vector<std::size_t> worse;
+    for (std::size_t i : r.alsoAccepted)
+      if (std::find(rivals.begin(), rivals.end(), i) == rivals.end()) worse.push_back(i);
+    if (!worse.empty()) {
+      md << "Also accepted against the base model, but significantly worse than the winner: ";
+      listFits(worse);
+      md << ".\n\n";
     }
   } else {
     md << "**No effect found**: no candidate lowers the held-out error enough and significantly (rule below).\n\n";
@@ -142,7 +158,9 @@ std::vector<std::string> writeReport(const std::string& directory, const Calibra
   md << "An effect is accepted when its held-out error is at least " << num(100 * r.options.minRelativeImprovement)
      << " % below the base's and the paired improvement over " << toString(r.options.pairedOver)
      << " (each one's share of E^2, base minus held out) has t = mean/(sd/sqrt(n)) >= " << num(r.options.minTStatistic)
-     << ". The accepted effect with the lowest held-out error wins.\n\n";
+     << ". The accepted effect with the lowest held-out error wins. Each other accepted effect is compared with the "
+        "winner by the same paired t (its held-out shares minus the winner's); below the threshold the data do not "
+        "tell the two apart.\n\n";
 
   md << "## Diagnosis: base residuals against the cases' features\n\n";
   if (r.features.empty()) md << "No feature varies over the cases.\n\n";

@@ -23,7 +23,8 @@
 // d_i = e_i(base) - e_i(effect, held out) of each observation's share of E^2 (each outcome, residual velocity,
 // hole extent) have mean / (sd / sqrt(n)) >= `minTStatistic` (2, about 97.5 % one-sided for n >= 10). Of the
 // accepted effects the one with the lowest held-out error wins; when none is accepted the answer is "no
-// effect found".
+// effect found". Each other accepted effect is compared with the winner by the same paired t (its held-out
+// shares minus the winner's): below `minTStatistic` the data do not tell the two apart, and the result says so.
 //
 // Why observations and not cases: hole sizes are often measured on a few shots only (seed 000 Table 5: 2 of
 // the 13 Table 1 shots). Over cases, an effect whose evidence is in those shots alone has d_c = 0 on the
@@ -31,6 +32,7 @@
 // price: the extents of one shot come from one run and are not independent, so t over observations overstates
 // the evidence when one shot carries it. `PairedUnit::cases` keeps the stricter per-case test.
 
+#include <limits>
 #include <map>
 #include <optional>
 #include <string>
@@ -87,6 +89,11 @@ struct EffectFit {
   double tStatistic = 0;               // of the paired differences (inf when all equal and positive)
   bool accepted = false;
   std::string verdict;                 // why accepted or rejected
+  // Held-out share of E^2 of each paired unit (observation or case, as the rule pairs them).
+  std::vector<double> heldoutShares;
+  // For an accepted effect that did not win: the paired t of its held-out shares minus the winner's (> 0 when the
+  // winner is better); NaN otherwise.
+  double tAgainstWinner = std::numeric_limits<double>::quiet_NaN();
   std::vector<Prediction> predictions;         // every case at `parameter`
   std::vector<Prediction> heldoutPredictions;  // every case predicted by the fit without its fold
   int evaluations = 0;                          // parameter values at which the model was run
@@ -114,6 +121,9 @@ struct CalibrationResult {
   std::vector<std::size_t> alsoAccepted;
 
   const EffectFit* winningFit() const { return winner ? &ranking[*winner] : nullptr; }
+  // The also-accepted effects whose held-out error is not significantly above the winner's (tAgainstWinner below
+  // the rule's minTStatistic): rival explanations the data cannot tell from the winner.
+  std::vector<std::size_t> indistinguishable() const;
 };
 
 CalibrationResult calibrate(Model& model, const MeasuredData& data, const CalibrationOptions& options = {});
