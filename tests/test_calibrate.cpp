@@ -168,51 +168,30 @@ TEST_CASE("calibrate: synthesize makes data from a model with an effect; noise-f
 }
 
 namespace {
-// Two effects that change the predictions in the same way (a residual velocity raised by the parameter): no data
-// can tell them apart.
-class TwinEffectModel : public Model {
+// v_r = V/2, every shot perforating; each effect either adds its value (m/s) to v_r or scales v_r by 1 + its value.
+class ResidualVelocityStandIn : public Model {
  public:
-  std::string describe() const override { return "twin-effect stand-in"; }
-  const std::vector<Effect>& effects() const override { return effects_; }
-  void check(const MeasuredData&) const override {}
-  std::vector<Prediction> predict(const MeasuredData& data, const std::vector<std::size_t>& cases,
-                                  const EffectSetting& setting) override {
-    std::vector<Prediction> out;
-    for (std::size_t c : cases) {
-      Prediction p;
-      p.perforated = true;
-      p.residualVelocity = data.cases[c].velocity * 0.5 + (setting.effect ? setting.value : 0.0);
-      out.push_back(p);
-    }
-    return out;
+  struct Term {
+    Effect effect;
+    bool scales;
+  };
+  explicit ResidualVelocityStandIn(std::vector<Term> terms) : terms_(std::move(terms)) {
+    for (const Term& t : terms_) effects_.push_back(t.effect);
   }
-  int suggestedGridPoints() const override { return 41; }
-  int suggestedRefineSteps() const override { return 40; }
-
- private:
-  std::vector<Effect> effects_{{"first", "adds to v_r", {"shift", "", "shift", 0, 50, 0}},
-                               {"second", "adds to v_r the same way", {"shift", "", "shift", 0, 50, 0}}};
-};
-}  // namespace
-
-namespace {
-// v_r = V/2 raised by `shift` (m/s), or V/2 scaled by 1 + `gain`: on data with a constant offset the shift fits
-// every case and the gain only the middle of the velocity range.
-class ShiftOrScaleModel : public Model {
- public:
-  std::string describe() const override { return "shift-or-scale stand-in"; }
+  std::string describe() const override { return "residual-velocity stand-in"; }
   const std::vector<Effect>& effects() const override { return effects_; }
   void check(const MeasuredData&) const override {}
   std::vector<Prediction> predict(const MeasuredData& data, const std::vector<std::size_t>& cases,
                                   const EffectSetting& setting) override {
+    const Term* term = nullptr;
+    for (const Term& t : terms_)
+      if (setting.effect && setting.effect->name == t.effect.name) term = &t;
     std::vector<Prediction> out;
     for (std::size_t c : cases) {
       Prediction p;
       p.perforated = true;
       const double half = data.cases[c].velocity * 0.5;
-      const bool shift = setting.effect && setting.effect->name == "shift";
-      const bool scale = setting.effect && setting.effect->name == "scale";
-      p.residualVelocity = half * (scale ? 1 + setting.value : 1.0) + (shift ? setting.value : 0.0);
+      p.residualVelocity = !term ? half : term->scales ? half * (1 + setting.value) : half + setting.value;
       out.push_back(p);
     }
     return out;
@@ -221,9 +200,22 @@ class ShiftOrScaleModel : public Model {
   int suggestedRefineSteps() const override { return 40; }
 
  private:
-  std::vector<Effect> effects_{{"shift", "adds to v_r", {"shift", "", "shift", 0, 50, 0}},
-                               {"scale", "scales v_r", {"gain", "", "gain", 0, 0.5, 0}}};
+  std::vector<Term> terms_;
+  std::vector<Effect> effects_;
 };
+
+const EffectParameter kShift{"shift", "", "shift", 0, 50, 0};
+
+// Two effects that change the predictions in the same way: no data can tell them apart.
+ResidualVelocityStandIn twinEffectModel() {
+  return ResidualVelocityStandIn({{{"first", "adds to v_r", kShift}, false},
+                                  {{"second", "adds to v_r the same way", kShift}, false}});
+}
+// On data with a constant offset the shift fits every case and the gain only the middle of the velocity range.
+ResidualVelocityStandIn shiftOrScaleModel() {
+  return ResidualVelocityStandIn({{{"shift", "adds to v_r", kShift}, false},
+                                  {{"scale", "scales v_r", {"gain", "", "gain", 0, 0.5, 0}}, true}});
+}
 }  // namespace
 
 TEST_CASE("calibrate: an also-accepted effect that the data tell from the winner is reported as worse, not a rival") {
@@ -235,7 +227,7 @@ TEST_CASE("calibrate: an also-accepted effect that the data tell from the winner
   csv << "case,impact_velocity_m_s,residual_velocity_m_s\n";
   for (int k = 0; k < 12; ++k) csv << "s" << k << "," << 200 + 50 * k << "," << 100 + 25 * k + 20 + gauss() << "\n";
   const MeasuredData data = parse(csv.str());
-  ShiftOrScaleModel model;
+  ResidualVelocityStandIn model = shiftOrScaleModel();
   const CalibrationResult r = blt::calibrate::calibrate(model, data);
   REQUIRE(r.winningFit() != nullptr);
   CHECK(r.winningFit()->effect.name == "shift");
@@ -305,7 +297,7 @@ TEST_CASE("calibrate: when two effects explain the data equally, the second is r
   csv << "case,impact_velocity_m_s,residual_velocity_m_s\n";
   for (int k = 0; k < 12; ++k) csv << "s" << k << "," << 200 + 10 * k << "," << 100 + 5 * k + 20 + gauss() << "\n";
   const MeasuredData data = parse(csv.str());
-  TwinEffectModel model;
+  ResidualVelocityStandIn model = twinEffectModel();
   const CalibrationResult r = blt::calibrate::calibrate(model, data);
   REQUIRE(r.winningFit() != nullptr);
   REQUIRE(r.alsoAccepted.size() == 1);
