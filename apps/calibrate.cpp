@@ -1,6 +1,7 @@
 // blt calibrate: close the loop with measured data. Residuals of a base model (an impact scenario run by the
 // solver, or an analytical residual-velocity model), candidate effects fitted and checked on held-out cases,
 // the winner named or "no effect found", a Markdown/SVG/JSON report.
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <ctime>
@@ -194,9 +195,10 @@ void registerCalibrateCommand(CLI::App& app) {
                 << withUnit(w->parameter, w->effect.parameter.unit) << "\n";
     else
       std::cout << "no effect found\n";
+    const std::vector<std::size_t> rivals = result.indistinguishable();
     for (std::size_t i : result.alsoAccepted) {
       const cal::EffectFit& f = result.ranking[i];
-      const bool rival = f.tAgainstWinner < result.options.minTStatistic;
+      const bool rival = std::find(rivals.begin(), rivals.end(), i) != rivals.end();
       std::cout << "  also accepted: " << f.effect.name << " (t " << number(f.tAgainstWinner) << " against "
                 << w->effect.name << ": "
                 << (rival ? "the data do not tell the two apart" : "significantly worse") << ")\n";
