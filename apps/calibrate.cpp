@@ -19,6 +19,7 @@
 #include "blt/calibrate/report.hpp"
 #include "blt/calibrate/solver_model.hpp"
 #include "blt/calibrate/synthetic.hpp"
+#include "blt/campaign/isolated.hpp"
 #include "cli_support.hpp"
 #include "commands.hpp"
 
@@ -68,13 +69,13 @@ void registerCalibrateCommand(CLI::App& app) {
       "      --scenario data/scenarios/fabric_al_original.toml --effects interlayer_gaps,thickness:outer \\\n"
       "      --set resolution.particle_spacing=0.2mm --set resolution.cell_size=0.4mm --report seed000");
   struct State {
-    std::string measured, scenario, model, report, cache, reuseRuns;
+    std::string measured, scenario, model, report, db, reuseRuns;
     std::vector<std::string> effects, settings;
     std::string aText = "1", pText = "2", folds = "0", grid = "0", refine = "-1", minImprovement = "0.1", minT = "2",
                 pairedOver = "observations";
     std::string jobs = "1", threads = "1", alignments = "1";
     double ballisticLimit = 0;
-    bool json = false, outcomeMargin = false;
+    bool json = false, outcomeMargin = false, inProcess = false;
   };
   auto s = std::make_shared<State>();
   cmd->add_option("--measured", s->measured, "measured data (CSV, columns above)")->required()->type_name("DATA");
@@ -92,8 +93,14 @@ void registerCalibrateCommand(CLI::App& app) {
   auto* vblOpt = addQuantity(*cmd, "--v-bl", s->ballisticLimit, units::velocity, "analytical model: base v_bl");
   cmd->add_option("--set", s->settings, "solver model: scenario setting KEY=VALUE on the base (repeatable)")
       ->type_name("KEY=VALUE");
-  cmd->add_option("--cache", s->cache, "solver model: run cache (JSON lines; default DIR/runs.jsonl), reused when present")
+  cmd->add_option("--db", s->db,
+                  "solver model: run database (SQLite, the kind blt campaign run writes; default DIR/runs.sqlite): every "
+                  "run recorded as it ends and reused by a calibration started again with the same build, the "
+                  "database's campaign runs too; an earlier blt's DIR/runs.jsonl is copied into it")
       ->type_name("FILE");
+  cmd->add_flag("--in-process", s->inProcess,
+                "solver model: run the simulations on threads of this process instead of one blt process each (a "
+                "crashing run then ends the calibration; what was recorded stays)");
   cmd->add_flag("--outcome-margin", s->outcomeMargin,
                 "solver model: an outcome the model gets wrong counts by how far: ln(d/d_c), d_c bisected on the "
                 "diameter to 3 % (about 5 runs a wrong case), instead of 1");
@@ -163,17 +170,23 @@ void registerCalibrateCommand(CLI::App& app) {
     } else {
       cal::SolverModelOptions so;
       so.settings = s->settings;
-      so.cacheFile = s->cache.empty() ? (std::filesystem::path(s->report) / "runs.jsonl").string() : s->cache;
+      so.database = s->db.empty() ? (std::filesystem::path(s->report) / "runs.sqlite").string() : s->db;
+      so.importCache = (std::filesystem::path(s->report) / "runs.jsonl").string();
       so.jobs = static_cast<int>(positiveNumber(s->jobs, "--jobs", false));
       so.alignments = static_cast<int>(positiveNumber(s->alignments, "--alignments", false));
       so.reuseDatabase = s->reuseRuns;
       so.threads = static_cast<int>(positiveNumber(s->threads, "--threads", false));
+      so.simulator = campaign::campaignSimulator(s->inProcess, so.threads);
       so.outcomeMargin = s->outcomeMargin;
       if (!s->json) so.log = [](const std::string& line) { std::cerr << "  run: " << line << "\n"; };
-      std::filesystem::create_directories(std::filesystem::path(so.cacheFile).parent_path().empty()
+      std::filesystem::create_directories(std::filesystem::path(so.database).parent_path().empty()
                                               ? std::filesystem::path(".")
-                                              : std::filesystem::path(so.cacheFile).parent_path());
-      model = std::make_unique<cal::SolverModel>(s->scenario, so, cal::scenariosNamedBy(data));
+                                              : std::filesystem::path(so.database).parent_path());
+      auto solver = std::make_unique<cal::SolverModel>(s->scenario, so, cal::scenariosNamedBy(data));
+      if (solver->runsImported() > 0 && !s->json)
+        std::cerr << "  " << solver->runsImported() << " runs copied from " << so.importCache << " into " << so.database
+                  << "\n";
+      model = std::move(solver);
       if (options.effects.empty())
         for (const auto& e : model->effects())
           if (!cal::turnsRunsThreeD(e.name)) options.effects.push_back(e.name);
@@ -231,10 +244,10 @@ struct BenchCalibrateOptions {
   // "measured": holes where seed 000 Table 5 has them (outer layer and plate); "every-layer": the same two shots'
   // holes in every layer of the target, which a test cannot give but synthetic data can.
   std::string holes = "measured";
-  // A folder for the runs, kept, whose run cache a later bench reuses (the runs of both --holes choices are the
+  // A folder for the runs, kept, whose run database a later bench reuses (the runs of both --holes choices are the
   // same simulations); empty: a fresh temporary folder, removed unless keep.
   std::string runs;
-  bool json = false, keep = false;
+  bool json = false, keep = false, inProcess = false;
 };
 
 void benchCalibrate(const BenchCalibrateOptions& o) {
@@ -253,10 +266,12 @@ void benchCalibrate(const BenchCalibrateOptions& o) {
   fs::create_directories(dir);
   cal::SolverModelOptions so;
   so.settings = {"resolution.particle_spacing=" + o.spacing, "resolution.cell_size=" + o.cell};
-  so.cacheFile = (dir / "runs.jsonl").string();
+  so.database = (dir / "runs.sqlite").string();
+  so.importCache = (dir / "runs.jsonl").string();
   so.cardDirectory = (dir / "cards").string();
   so.jobs = o.jobs;
   so.threads = o.threads;
+  so.simulator = campaign::campaignSimulator(o.inProcess, o.threads);
   so.alignments = o.alignments;
   cal::CalibrationOptions options;
   options.effects = {"interlayer_gaps", "gap:plate", "thickness:outer"};
@@ -366,9 +381,11 @@ void registerBenchCalibrateCommand(CLI::App& bench) {
       ->check(CLI::IsMember({"measured", "every-layer"}));
   cmd->add_flag("--keep", o->keep, "Keep the runs (the directory is printed)");
   cmd->add_option("--runs", o->runs,
-                  "Folder for the runs (created if missing, kept): a run already in its cache (runs.jsonl) is not made "
+                  "Folder for the runs (created if missing, kept): a run already in its database (runs.sqlite) is not made "
                   "again, so a second bench with the same spacing, cell, gap and alignments, e.g. the other --holes, "
                   "makes none");
+  cmd->add_flag("--in-process", o->inProcess,
+                "Run the simulations on threads of this process instead of one blt process each");
   addJsonFlag(*cmd, o->json);
   cmd->callback([o] { benchCalibrate(*o); });
 }

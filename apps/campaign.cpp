@@ -90,16 +90,6 @@ void printPoints(const std::vector<PointRecord>& points, const std::string& vari
   }
 }
 
-// Each run in a blt process of its own, so that a crash is a failed run and not the end of the campaign;
-// --in-process (or MPI, whose ranks are processes already) runs them on threads of this one.
-Simulator campaignSimulator(bool inProcess, int threads) {
-  if (inProcess) return impactSimulator(threads);
-  IsolatedRunOptions io;
-  io.executable = currentExecutable();
-  io.threads = threads;
-  return isolatedSimulator(io);
-}
-
 constexpr const char* kInProcessHelp =
     "Run the simulations on threads of this process instead of one blt process each (a crashing run then ends "
     "the campaign; what was recorded stays)";

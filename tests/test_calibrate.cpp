@@ -13,6 +13,8 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <iterator>
+#include <memory>
 #include <mutex>
 #include <numbers>
 #include <random>
@@ -28,6 +30,7 @@
 #include "blt/calibrate/report.hpp"
 #include "blt/calibrate/solver_model.hpp"
 #include "blt/calibrate/synthetic.hpp"
+#include "blt/campaign/database.hpp"
 #include "blt/core/error.hpp"
 #include "blt/core/seeded_gaussian.hpp"
 #include "run_blt.hpp"
@@ -695,7 +698,7 @@ TEST_CASE("calibrate: each shot is run on its own scenario, and layer effects st
   const std::string corrected = std::string(BLT_DATA_DIR) + "/scenarios/fabric_al_corrected.toml";
   SolverModelOptions options;
   options.settings = {"resolution.particle_spacing=0.2mm", "resolution.cell_size=0.4mm"};  // coarse, cheap
-  options.cacheFile = dir + "/runs.jsonl";
+  options.database = dir + "/runs.sqlite";
   // The same shot (seed 000 Table 1 case 05) on both coatings.
   const MeasuredData data = parse("case,scenario,diameter_mm,velocity_km_s,layer,hole_h_mm\n"
                                   "a," + original + ",1.2,4.03,outer,1.8\nb," + corrected + ",1.2,4.03,outer,1.8\n");
@@ -725,7 +728,7 @@ TEST_CASE("calibrate: averaged over grid alignments, a prediction is the mean of
   const std::string scenario = std::string(BLT_DATA_DIR) + "/scenarios/fabric_al_original.toml";
   SolverModelOptions options;
   options.settings = {"resolution.particle_spacing=0.2mm", "resolution.cell_size=0.4mm"};  // coarse, cheap
-  options.cacheFile = dir + "/runs.jsonl";
+  options.database = dir + "/runs.sqlite";
   const MeasuredData data = parse("case,diameter_mm,velocity_km_s,perforated,layer,hole_h_mm\n05,1.2,4.03,Y,,\n05,1.2,4.03,,outer,1.8\n");
   options.alignments = 2;
   SolverModel averaged(scenario, options);
@@ -772,7 +775,7 @@ TEST_CASE("calibrate: runs a bisection campaign made are taken from its database
   const MeasuredData data = parse("diameter_mm,velocity_km_s,layer,hole_h_mm\n2.0,4.03,outer,1.8\n");
   SolverModelOptions options;
   options.settings = {"resolution.particle_spacing=0.2mm", "resolution.cell_size=0.4mm"};
-  options.cacheFile = (dir / "cache.jsonl").string();
+  options.database = (dir / "calibration.sqlite").string();
   options.reuseDatabase = db;
   Prediction reused;
   {
@@ -786,12 +789,21 @@ TEST_CASE("calibrate: runs a bisection campaign made are taken from its database
   }
   // The same shot simulated here gives the same prediction (same build, same inputs).
   options.reuseDatabase.clear();
-  options.cacheFile.clear();
+  options.database.clear();
   SolverModel fresh(scenario, options);
   const Prediction simulated = fresh.predict(data, {0}, {})[0];
   CHECK(fresh.runsMade() == 1);
   CHECK(simulated.perforated == reused.perforated);
   CHECK(simulated.holes.at(0).second.first == doctest::Approx(reused.holes.at(0).second.first));
+  // A calibration that records its runs in the campaign's own database takes them from it without --reuse-runs.
+  {
+    SolverModelOptions own = options;
+    own.database = db;
+    SolverModel model(scenario, own);
+    CHECK(model.predict(data, {0}, {})[0].perforated == reused.perforated);
+    CHECK(model.runsReused() == 1);
+    CHECK(model.runsMade() == 0);
+  }
   // Other --set settings than the campaign's: nothing to reuse.
   options.reuseDatabase = db;
   options.settings = {"resolution.particle_spacing=0.2mm", "resolution.cell_size=0.4mm", "run.max_time=8us"};
@@ -803,21 +815,36 @@ TEST_CASE("calibrate: runs a bisection campaign made are taken from its database
   fs::remove_all(dir);
 }
 
-TEST_CASE("calibrate: solver runs are kept in the run cache and not made again") {
+TEST_CASE("calibrate: solver runs are recorded in a run database and not made again") {
   const std::string dir = tempDir("cache");
   const std::string scenario = std::string(BLT_DATA_DIR) + "/scenarios/fabric_al_original.toml";
   SolverModelOptions options;
   // Coarse: a fraction of a second a run.
   options.settings = {"resolution.particle_spacing=0.2mm", "resolution.cell_size=0.4mm"};
-  options.cacheFile = dir + "/runs.jsonl";
+  options.database = dir + "/runs.sqlite";
   const MeasuredData data = parse("case,diameter_mm,velocity_km_s,perforated,layer,hole_h_mm\n05,1.2,4.03,Y,,\n05,1.2,4.03,,outer,1.8\n");
   Prediction first;
+  std::vector<std::string> settings;
   {
     SolverModel model(scenario, options);
     first = model.predict(data, {0}, {})[0];
+    settings = model.settingsFor(data.cases[0], {});
     CHECK(model.runsMade() == 1);
     CHECK(first.holes.size() == 1);
     CHECK(first.holes[0].second.first > 0);  // the projectile holes the outer fabric
+  }
+  // The record: the run's inputs as a campaign run's are (scenario hash of text and settings), its build, its summary.
+  {
+    const campaign::RunDatabase db(options.database);
+    const auto runs = db.calibrationRuns();
+    REQUIRE(runs.size() == 1);
+    std::ifstream in(scenario);
+    const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    CHECK(runs[0].state == campaign::RunState::completed);
+    CHECK(runs[0].settings == settings);
+    CHECK(runs[0].scenarioHash == sim::scenarioHash(text, settings));
+    CHECK(runs[0].toolVersion == sim::buildVersion());
+    CHECK(runs[0].summary["hole_size_mm"].at(0).at(0).get<double>() * 1e-3 == doctest::Approx(first.holes[0].second.first));
   }
   SolverModel again(scenario, options);
   const Prediction second = again.predict(data, {0}, {})[0];
@@ -830,13 +857,158 @@ TEST_CASE("calibrate: solver runs are kept in the run cache and not made again")
   fs::remove_all(dir);
 }
 
+namespace {
+
+// A stand-in for the solver: what it returns for every run, and how many it was asked for.
+struct StandInSimulator {
+  campaign::SimulationOutcome outcome;
+  std::shared_ptr<int> calls = std::make_shared<int>(0);
+  campaign::Simulator simulator() const {
+    return [o = outcome, calls = calls](const sim::ImpactScenario&) {
+      ++*calls;
+      return o;
+    };
+  }
+};
+
+// A run's summary as `blt sim run --json` gives it, for a four-layer target, outer hole `hole` mm wide.
+nlohmann::json fakeSummary(bool perforated, double hole, const std::string& status = "completed") {
+  return {{"perforated", perforated},
+          {"residual_velocity_m_s", perforated ? 1000.0 : 0.0},
+          {"layers", {"outer", "mli", "liner", "plate"}},
+          {"hole_size_mm", {{hole, hole}, {0, 0}, {0, 0}, {0, 0}}},
+          {"status", status},
+          {"wall_time_s", 1.5}};
+}
+
+}  // namespace
+
+TEST_CASE("calibrate: a crashed run stops the calibration and is made again; one gone unstable is used and kept") {
+  const std::string dir = tempDir("failed_runs");
+  const std::string scenario = std::string(BLT_DATA_DIR) + "/scenarios/fabric_al_original.toml";
+  const MeasuredData data = parse("case,diameter_mm,velocity_km_s,layer,hole_h_mm\n05,1.2,4.03,outer,1.8\n");
+  SolverModelOptions options;
+  options.database = dir + "/runs.sqlite";
+  StandInSimulator crash;
+  crash.outcome.failed = true;
+  crash.outcome.reason = "the run crashed: signal 11 (Segmentation fault)";
+  options.simulator = crash.simulator();
+  {
+    SolverModel model(scenario, options);
+    std::string message;
+    try {
+      model.predict(data, {0}, {});
+    } catch (const std::runtime_error& e) {
+      message = e.what();
+    }
+    CHECK(message.find("signal 11") != std::string::npos);
+    CHECK(message.find("projectile.diameter=1.2mm") != std::string::npos);
+  }
+  {
+    const campaign::RunDatabase db(options.database);
+    REQUIRE(db.calibrationRuns().size() == 1);
+    CHECK(db.calibrationRuns()[0].state == campaign::RunState::failed);
+    CHECK(db.calibrationRuns()[0].reason == crash.outcome.reason);
+  }
+  // The next calibration makes it again; the completed run takes the failed one's place.
+  StandInSimulator works;
+  works.outcome.measurements = fakeSummary(true, 6.0);
+  options.simulator = works.simulator();
+  {
+    SolverModel model(scenario, options);
+    CHECK(model.predict(data, {0}, {})[0].holes.at(0).second.first == doctest::Approx(6e-3));
+    CHECK(*works.calls == 1);
+    const campaign::RunDatabase db(options.database);
+    REQUIRE(db.calibrationRuns().size() == 1);
+    CHECK(db.calibrationRuns()[0].state == campaign::RunState::completed);
+  }
+  // A run that went unstable has a summary (the state where it stopped): recorded as failed, with it, and replayed.
+  StandInSimulator unstable;
+  unstable.outcome.failed = true;
+  unstable.outcome.reason = "the run went unstable: energy grew";
+  unstable.outcome.measurements = fakeSummary(false, 2.0, "unstable");
+  options.simulator = unstable.simulator();
+  const MeasuredData other = parse("case,diameter_mm,velocity_km_s,layer,hole_h_mm\n06,1.0,4.03,outer,1.8\n");
+  for (int pass = 0; pass < 2; ++pass) {
+    SolverModel model(scenario, options);
+    CHECK(model.predict(other, {0}, {})[0].holes.at(0).second.first == doctest::Approx(2e-3));
+  }
+  CHECK(*unstable.calls == 1);
+  const campaign::RunDatabase db(options.database);
+  REQUIRE(db.calibrationRuns().size() == 2);
+  CHECK(db.calibrationRuns()[1].state == campaign::RunState::failed);
+  CHECK(db.calibrationRuns()[1].reason == unstable.outcome.reason);
+  fs::remove_all(dir);
+}
+
+TEST_CASE("calibrate: the runs an earlier blt kept in runs.jsonl are copied into the run database, not made again") {
+  const std::string dir = tempDir("import");
+  const std::string scenario = std::string(BLT_DATA_DIR) + "/scenarios/fabric_al_original.toml";
+  const MeasuredData data = parse("case,diameter_mm,velocity_km_s,layer,hole_h_mm\n05,1.2,4.03,outer,1.8\n");
+  SolverModelOptions options;
+  options.database = dir + "/runs.sqlite";
+  options.importCache = dir + "/runs.jsonl";
+  StandInSimulator never;
+  options.simulator = never.simulator();
+  {
+    // The cache as the earlier calibration left it: the run under its key (the scenario's absolute path, the
+    // hash of its text, the model fingerprint, the settings).
+    std::ifstream in(scenario);
+    const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    SolverModel probe(scenario, {});
+    sim::RunCache cache(options.importCache);
+    cache.record(sim::RunCache::key(fs::absolute(scenario).lexically_normal().string(), text,
+                                    probe.settingsFor(data.cases[0], {})),
+                 fakeSummary(true, 7.0));
+  }
+  for (int pass = 0; pass < 2; ++pass) {
+    SolverModel model(scenario, options);
+    CHECK(model.runsImported() == (pass == 0 ? 1 : 0));  // the second time it is in the database already
+    CHECK(model.predict(data, {0}, {})[0].holes.at(0).second.first == doctest::Approx(7e-3));
+    CHECK(model.runsMade() == 0);
+  }
+  CHECK(*never.calls == 0);
+  fs::remove_all(dir);
+}
+
+TEST_CASE("calibrate: the command line runs each simulation in a blt process of its own and records it in DIR/runs.sqlite") {
+  const std::string dir = tempDir("cli_solver");
+  fs::create_directories(dir);
+  const std::string scenario = std::string(BLT_DATA_DIR) + "/scenarios/fabric_al_original.toml";
+  {
+    std::ofstream csv(fs::path(dir) / "shots.csv");
+    csv << "case,diameter_mm,velocity_km_s,layer,hole_h_mm\n05,1.2,4.03,outer,1.8\n06,1.0,4.03,outer,1.7\n"
+           "07,0.8,4.03,outer,1.5\n";
+  }
+  const std::string command = "calibrate --measured '" + dir + "/shots.csv' --scenario '" + scenario +
+                              "' --set resolution.particle_spacing=0.2mm --set resolution.cell_size=0.4mm "
+                              "--set run.max_time=8us --effects thickness:outer --grid 2 --report '" +
+                              dir + "/report'";
+  const BltRun first = runBlt(command);
+  REQUIRE_MESSAGE(first.status == 0, first.output);
+  std::size_t runs = 0;
+  {
+    const campaign::RunDatabase db(dir + "/report/runs.sqlite");
+    runs = db.calibrationRuns().size();
+    // Three shots, each at the base and at the two points of the effect's grid (thickness x 0.5 and x 1.5).
+    CHECK(runs == 9);
+    for (const auto& r : db.calibrationRuns()) CHECK(r.state == campaign::RunState::completed);
+  }
+  // Started again, it finds every run recorded: no "run:" line, the same database.
+  const BltRun second = runBlt(command);
+  REQUIRE_MESSAGE(second.status == 0, second.output);
+  CHECK(second.output.find("run: ") == std::string::npos);
+  CHECK(campaign::RunDatabase(dir + "/report/runs.sqlite").calibrationRuns().size() == runs);
+  fs::remove_all(dir);
+}
+
 TEST_CASE("calibrate: with outcome margins a wrong outcome counts ln(d/d_c), the model's d_c bracketed to 3 %") {
   const std::string dir = tempDir("margin");
   const std::string scenario = std::string(BLT_DATA_DIR) + "/scenarios/fabric_al_corrected.toml";
   SolverModelOptions options;
   options.settings = {"resolution.particle_spacing=0.2mm", "resolution.cell_size=0.4mm", "target.lateral_size=12mm",
                       "run.max_time=8us"};
-  options.cacheFile = dir + "/runs.jsonl";
+  options.database = dir + "/runs.sqlite";
   options.outcomeMargin = true;
   // Every run the model makes, as (perforated, diameter in m), from its log lines ("perforated ... projectile.diameter=1.2mm").
   std::vector<std::pair<bool, double>> runs;

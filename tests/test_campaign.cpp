@@ -465,6 +465,63 @@ TEST_CASE("campaign: task split into parts and merged equals one run") {
                        blt::InputError);
 }
 
+TEST_CASE("run database: calibration runs are kept beside the campaigns, a schema-1 file gains their table, merge carries them") {
+  const fs::path dir = scratch("calibration_runs");
+  const Campaign c = parseCampaign(campaignText("beside", kBisect + kGrid), (dir / "c.toml").string());
+  const auto calibrationRun = [](const std::string& key, RunState state) {
+    CalibrationRunRecord r;
+    r.key = key;
+    r.scenario = "target.toml";
+    r.settings = {"projectile.diameter=1.2mm"};
+    r.scenarioHash = scenarioHash("text", r.settings);
+    r.state = state;
+    r.reason = state == RunState::failed ? "the run crashed" : "";
+    if (state == RunState::completed) r.summary = {{"perforated", true}};
+    r.toolVersion = blt::sim::buildVersion();
+    return r;
+  };
+  const std::string oldFile = (dir / "schema1.sqlite").string();
+  {
+    RunDatabase db(oldFile);
+    FakeSolver fake;
+    CampaignRunOptions o;
+    o.simulator = fake.simulator();
+    runCampaign(c, db, o);
+  }
+  // The file as blt wrote it before calibration runs had a table: schema 1.
+  {
+    RawDb raw(oldFile);
+    raw.exec("DROP TABLE calibration_runs; PRAGMA user_version = 1");
+  }
+  const int campaignRuns = [&] {
+    RunDatabase db(oldFile);
+    CHECK(db.calibrationRuns().empty());
+    // A completed run replaces a failed one of its key; a second completed one does not replace the first.
+    db.recordCalibrationRun(calibrationRun("k1", RunState::failed));
+    CHECK(db.findCalibrationRun("k1")->state == RunState::failed);
+    CHECK(db.recordCalibrationRun(calibrationRun("k1", RunState::completed)).state == RunState::completed);
+    CalibrationRunRecord later = calibrationRun("k1", RunState::completed);
+    later.summary = {{"perforated", false}};
+    CHECK(db.recordCalibrationRun(later).summary["perforated"] == true);
+    CHECK_FALSE(db.findCalibrationRun("k2"));
+    return static_cast<int>(db.runs(db.findCampaign("beside")->id).size());
+  }();
+  CHECK(campaignRuns > 0);
+  CHECK(RawDb(oldFile).integer("PRAGMA user_version") == RunDatabase::kSchemaVersion);
+  // Merged into a file with a failed run of the same key and one of its own: the completed run wins, both stay.
+  const std::string other = (dir / "other.sqlite").string();
+  {
+    RunDatabase db(other);
+    db.recordCalibrationRun(calibrationRun("k1", RunState::failed));
+    db.recordCalibrationRun(calibrationRun("k3", RunState::completed));
+    CHECK(db.mergeFrom(oldFile) == campaignRuns + 1);
+    CHECK(db.findCalibrationRun("k1")->state == RunState::completed);
+    CHECK(db.findCalibrationRun("k1")->settings == std::vector<std::string>{"projectile.diameter=1.2mm"});
+    CHECK(db.calibrationRuns().size() == 2);
+    CHECK(db.mergeFrom(oldFile) == 0);
+  }
+}
+
 TEST_CASE("campaign: a failed run is recorded and retried at half the spacing and an unresolvable point says why") {
   const fs::path dir = scratch("failures");
   const Campaign c = parseCampaign(campaignText("fail", kBisect + "[grid]\nvelocity = [\"3 km/s\", \"5 km/s\", \"7 km/s\"]\n"),

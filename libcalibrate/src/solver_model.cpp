@@ -139,9 +139,9 @@ SolverModel::SolverModel(const std::string& scenarioPath, SolverModelOptions opt
                             " (f < 1: it fragments more easily)",
                         {"f", "", "failure_factor", 0.25, 2.0, 1.0}});
   if (options_.cardDirectory.empty())
-    options_.cardDirectory = options_.cacheFile.empty()
+    options_.cardDirectory = options_.database.empty()
                                  ? (std::filesystem::temp_directory_path() / "blt_calibrate_cards").string()
-                                 : (std::filesystem::path(options_.cacheFile).parent_path() / "cards").string();
+                                 : (std::filesystem::path(options_.database).parent_path() / "cards").string();
   effects_.push_back({"obliquity", "every shot is delta degrees more oblique than recorded (3D runs)",
                       {"delta", "deg", "angle_error_rad", 0.0, 15 * deg, 0.0}});
   if (std::all_of(targets_.begin(), targets_.end(),
@@ -150,8 +150,32 @@ SolverModel::SolverModel(const std::string& scenarioPath, SolverModelOptions opt
                         "every shot has psi degrees more yaw than recorded: the projectile's axis turned off its flight "
                         "path, in the plane of incidence (3D runs)",
                         {"psi", "deg", "yaw_rad", 0.0, 10 * deg, 0.0}});
-  cache_ = std::make_unique<sim::RunCache>(options_.cacheFile);
-  if (!options_.reuseDatabase.empty()) loadReusableRuns();
+  if (!options_.simulator) options_.simulator = campaign::impactSimulator(options_.threads);
+  runs_ = std::make_unique<campaign::RunDatabase>(options_.database.empty() ? ":memory:" : options_.database);
+  if (!options_.importCache.empty() && std::filesystem::is_regular_file(options_.importCache))
+    importRunCache(options_.importCache);
+  loadReusableRuns(*runs_);
+  if (!options_.reuseDatabase.empty()) {
+    if (!std::filesystem::is_regular_file(options_.reuseDatabase))
+      throw InputError(InputLocation::flag("--reuse-runs"), "no run database " + options_.reuseDatabase,
+                       "a campaign's SQLite file (blt campaign run --db FILE)");
+    loadReusableRuns(campaign::RunDatabase(options_.reuseDatabase));
+  }
+}
+
+void SolverModel::importRunCache(const std::string& path) {
+  const std::string imported = "imported from " + path;
+  for (const auto& [key, summary] : sim::RunCache(path).runs()) {
+    if (runs_->findCalibrationRun(key)) continue;
+    campaign::CalibrationRunRecord r;
+    r.key = key;
+    r.summary = summary;
+    r.wallSeconds = summary.value("wall_time_s", 0.0);
+    // The cache kept only the key and the summary; the key names the scenario, the model and the settings.
+    r.toolVersion = imported;
+    runs_->recordCalibrationRun(r);
+    ++runsImported_;
+  }
 }
 
 bool turnsRunsThreeD(const std::string& effect) { return effect == "obliquity" || effect == "yaw"; }
@@ -361,11 +385,7 @@ bool sameValue(double a, double b) { return std::abs(a - b) <= 1e-8 * std::max(s
 
 }  // namespace
 
-void SolverModel::loadReusableRuns() {
-  if (!std::filesystem::is_regular_file(options_.reuseDatabase))
-    throw InputError(InputLocation::flag("--reuse-runs"), "no run database " + options_.reuseDatabase,
-                     "a campaign's SQLite file (blt campaign run --db FILE)");
-  const campaign::RunDatabase db(options_.reuseDatabase);
+void SolverModel::loadReusableRuns(const campaign::RunDatabase& db) {
   const std::string fingerprint = "+model." + sim::modelFingerprint();
   for (const campaign::CampaignRecord& c : db.campaigns()) {
     const std::string hash = c.definition.value("scenario_hash", std::string());
@@ -408,32 +428,47 @@ std::optional<nlohmann::json> SolverModel::reusedRun(const Target& t, const std:
 
 nlohmann::json SolverModel::runOrRecall(const Target& t, const std::vector<std::string>& settings) {
   const std::string key = sim::RunCache::key(t.label, t.text, settings);
-  if (auto found = cache_->find(key)) return *found;
-  if (auto reused = reusedRun(t, settings)) {
-    cache_->record(key, *reused);
-    std::lock_guard lock(mutex_);
-    ++runsReused_;
-    if (options_.log) {
-      std::string line = std::string((*reused)["perforated"].get<bool>() ? "perforated" : "stopped") + " (campaign run)";
-      for (const auto& kv : settings) line += " " + kv;
-      options_.log(line);
-    }
-    return *reused;
-  }
-  const sim::ImpactScenario scenario = sim::loadScenario(t.path, settings);
-  sim::ImpactRunOptions runOptions;
-  runOptions.threads = options_.threads;
-  const sim::ImpactResult r = sim::runImpact(scenario, runOptions);
-  nlohmann::json kept = keptFields(r.summary);
-  cache_->record(key, kept);
-  std::lock_guard lock(mutex_);
-  ++runsMade_;
-  if (options_.log) {
-    std::string line = kept["perforated"].get<bool>() ? "perforated" : "stopped";
+  // A run without a summary crashed (or its output was lost): made again. One that went unstable has one.
+  if (auto found = runs_->findCalibrationRun(key); found && found->summary.contains("perforated")) return found->summary;
+  const auto logRun = [&](const nlohmann::json& kept, const std::string& how) {
+    if (!options_.log) return;
+    std::string line = std::string(kept["perforated"].get<bool>() ? "perforated" : "stopped") + how;
     for (const auto& kv : settings) line += " " + kv;
     options_.log(line);
+  };
+  campaign::CalibrationRunRecord record;
+  record.key = key;
+  record.scenario = t.path;
+  record.settings = settings;
+  record.scenarioHash = sim::scenarioHash(t.text, settings);
+  if (auto reused = reusedRun(t, settings)) {
+    record.summary = *reused;
+    record.wallSeconds = reused->value("wall_time_s", 0.0);
+    record.toolVersion = sim::buildVersion();
+    runs_->recordCalibrationRun(record);
+    std::lock_guard lock(mutex_);
+    ++runsReused_;
+    logRun(*reused, " (campaign run)");
+    return *reused;
   }
-  return kept;
+  const campaign::SimulationOutcome outcome = options_.simulator(sim::loadScenario(t.path, settings));
+  const bool summarised = outcome.measurements.is_object() && outcome.measurements.contains("perforated");
+  record.state = outcome.failed ? campaign::RunState::failed : campaign::RunState::completed;
+  record.reason = outcome.reason;
+  if (summarised) record.summary = keptFields(outcome.measurements);
+  record.wallSeconds = outcome.wallSeconds;
+  record.toolVersion = sim::buildVersion();
+  runs_->recordCalibrationRun(record);
+  std::lock_guard lock(mutex_);
+  ++runsMade_;
+  if (!summarised) {
+    std::string shot;
+    for (const auto& kv : settings) shot += " --set " + kv;
+    throw std::runtime_error("the run of " + t.path + shot + " failed: " + outcome.reason +
+                             " (recorded as failed in the run database; calibrating again makes it again)");
+  }
+  logRun(record.summary, outcome.failed ? " (" + outcome.reason + ")" : "");
+  return record.summary;
 }
 
 double SolverModel::margin(const MeasuredCase& measured, const EffectSetting& setting, bool perforatedAtMeasured) {

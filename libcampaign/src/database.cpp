@@ -77,6 +77,23 @@ CREATE TABLE runs (
 );
 )sql";
 
+// Schema 2: the runs of calibrations, which belong to no campaign. Created with a new file and added to a file of
+// schema 1 when it is opened.
+constexpr const char* kSchemaV2 = R"sql(
+CREATE TABLE IF NOT EXISTS calibration_runs (
+  key TEXT PRIMARY KEY,
+  scenario TEXT NOT NULL,
+  settings TEXT NOT NULL,
+  scenario_hash TEXT NOT NULL,
+  state TEXT NOT NULL CHECK (state IN ('completed', 'failed')),
+  reason TEXT NOT NULL,
+  summary TEXT NOT NULL,
+  wall_time_s REAL NOT NULL,
+  tool_version TEXT NOT NULL,
+  created_utc TEXT NOT NULL
+);
+)sql";
+
 int pragma(sqlite3* db, const std::string& file, const char* name) {
   sql::Query q(db, file, std::string("PRAGMA ") + name, std::string("reading PRAGMA ") + name);
   return q.step() ? static_cast<int>(q.integer(0)) : 0;
@@ -87,9 +104,11 @@ int tableCount(sqlite3* db, const std::string& file) {
   return q.step() ? static_cast<int>(q.integer(0)) : 0;
 }
 
-// Throws for a file this blt cannot use; true when the schema must be created.
-bool needsSchema(sqlite3* db, const std::string& file) {
-  const std::string allowed = "a run database written by blt campaign run, or the name of a new file";
+enum class SchemaWork { none, create, upgrade };
+
+// Throws for a file this blt cannot use; otherwise what its schema needs.
+SchemaWork schemaWork(sqlite3* db, const std::string& file) {
+  const std::string allowed = "a run database written by blt campaign run or blt calibrate, or the name of a new file";
   const int version = pragma(db, file, "user_version");
   const int app = pragma(db, file, "application_id");
   if (app != 0 && app != kApplicationId)
@@ -99,10 +118,11 @@ bool needsSchema(sqlite3* db, const std::string& file) {
                      "was written by a newer blt (run database schema " + std::to_string(version) +
                          "; this blt reads up to " + std::to_string(RunDatabase::kSchemaVersion) + ")",
                      "upgrade blt to read it");
-  if (version == RunDatabase::kSchemaVersion && app == kApplicationId) return false;
+  if (app == kApplicationId && version == RunDatabase::kSchemaVersion) return SchemaWork::none;
+  if (app == kApplicationId && version >= 1) return SchemaWork::upgrade;
   if (tableCount(db, file) > 0)
     throw InputError(InputLocation::file(file), "is an SQLite database but not a blt run database", allowed);
-  return true;
+  return SchemaWork::create;
 }
 
 const char* stateKey(RunState s) { return s == RunState::completed ? "completed" : "failed"; }
@@ -209,6 +229,44 @@ bool insertRun(sqlite3* db, const std::string& file, std::int64_t campaign, cons
   return q.changes() > 0;
 }
 
+constexpr const char* kCalibrationRunColumns =
+    "key, scenario, settings, scenario_hash, state, reason, summary, wall_time_s, tool_version, created_utc";
+
+CalibrationRunRecord readCalibrationRun(const sql::Query& q) {
+  CalibrationRunRecord r;
+  r.key = q.text(0);
+  r.scenario = q.text(1);
+  r.settings = nlohmann::json::parse(q.text(2)).get<std::vector<std::string>>();
+  r.scenarioHash = q.text(3);
+  r.state = q.text(4) == "completed" ? RunState::completed : RunState::failed;
+  r.reason = q.text(5);
+  r.summary = nlohmann::json::parse(q.text(6));
+  r.wallSeconds = q.real(7);
+  r.toolVersion = q.text(8);
+  r.createdUtc = q.text(9);
+  return r;
+}
+
+// Inserts a calibration run in a transaction the caller holds: a completed run replaces a failed one of its key,
+// anything else recorded first stays. False when nothing changed.
+bool insertCalibrationRun(sqlite3* db, const std::string& file, const CalibrationRunRecord& r) {
+  sql::Query q(db, file,
+               std::string("INSERT INTO calibration_runs (") + kCalibrationRunColumns +
+                   ") VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10) ON CONFLICT (key) DO UPDATE SET "
+                   "scenario = excluded.scenario, settings = excluded.settings, scenario_hash = excluded.scenario_hash, "
+                   "state = excluded.state, reason = excluded.reason, summary = excluded.summary, "
+                   "wall_time_s = excluded.wall_time_s, tool_version = excluded.tool_version, "
+                   "created_utc = excluded.created_utc WHERE state = 'failed' AND excluded.state = 'completed'",
+               "recording a calibration run");
+  q.bind(1, r.key).bind(2, r.scenario).bind(3, nlohmann::json(r.settings).dump()).bind(4, r.scenarioHash);
+  q.bind(5, stateKey(r.state)).bind(6, r.reason);
+  q.bind(7, r.summary.is_null() ? std::string("{}")
+                                : r.summary.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace));
+  q.bind(8, r.wallSeconds).bind(9, r.toolVersion).bind(10, r.createdUtc.empty() ? nowUtcIso8601() : r.createdUtc);
+  q.run();
+  return q.changes() > 0;
+}
+
 void writePoint(sqlite3* db, const std::string& file, std::int64_t campaign, const PointRecord& p, bool replace) {
   sql::Query q(db, file,
                std::string(replace ? "INSERT OR REPLACE" : "INSERT OR IGNORE") +
@@ -252,17 +310,19 @@ RunDatabase::RunDatabase(const std::string& path) : path_(path) {
   }
   try {
     sqlite3_busy_timeout(db_, kBusyTimeoutMs);
-    const bool schemaMissing = [&] {
+    const auto work = [&] {
       // user_version, application_id and the table count from one snapshot: read one by one, a writer
       // creating the schema between them makes a new database look like a foreign one.
       sql::ReadTransaction snapshot(db_, path_);
-      return needsSchema(db_, path_);
-    }();
-    if (schemaMissing) {
+      return schemaWork(db_, path_);
+    };
+    if (work() != SchemaWork::none) {
       sql::WriteTransaction tx(db_, path_);
-      // Another process may have created it while this one waited for the lock.
-      if (needsSchema(db_, path_)) {
-        sql::exec(db_, path_, kSchemaV1, "creating the run database schema");
+      // Another process may have created or upgraded it while this one waited for the lock.
+      const SchemaWork now = schemaWork(db_, path_);
+      if (now == SchemaWork::create) sql::exec(db_, path_, kSchemaV1, "creating the run database schema");
+      if (now != SchemaWork::none) {
+        sql::exec(db_, path_, kSchemaV2, "adding the calibration runs to the schema");
         sql::exec(db_, path_,
                   "PRAGMA user_version = " + std::to_string(kSchemaVersion) +
                       "; PRAGMA application_id = " + std::to_string(kApplicationId),
@@ -388,6 +448,34 @@ std::vector<RunRecord> RunDatabase::runs(std::int64_t campaign) const {
   return list;
 }
 
+std::optional<CalibrationRunRecord> RunDatabase::findCalibrationRun(const std::string& key) const {
+  std::lock_guard lock(mutex_);
+  sql::Query q(db_, path_, std::string("SELECT ") + kCalibrationRunColumns + " FROM calibration_runs WHERE key = ?1",
+               "looking up a calibration run");
+  q.bind(1, key);
+  if (!q.step()) return std::nullopt;
+  return readCalibrationRun(q);
+}
+
+CalibrationRunRecord RunDatabase::recordCalibrationRun(const CalibrationRunRecord& r) {
+  std::lock_guard lock(mutex_);
+  {
+    sql::WriteTransaction tx(db_, path_);
+    insertCalibrationRun(db_, path_, r);
+    tx.commit();
+  }
+  return *findCalibrationRun(r.key);
+}
+
+std::vector<CalibrationRunRecord> RunDatabase::calibrationRuns() const {
+  std::lock_guard lock(mutex_);
+  sql::Query q(db_, path_, std::string("SELECT ") + kCalibrationRunColumns + " FROM calibration_runs ORDER BY rowid",
+               "listing calibration runs");
+  std::vector<CalibrationRunRecord> list;
+  while (q.step()) list.push_back(readCalibrationRun(q));
+  return list;
+}
+
 int RunDatabase::mergeFrom(const std::string& otherPath) {
   if (!std::filesystem::exists(otherPath))
     throw InputError(InputLocation::file(otherPath), "no such run database", "a file written by blt campaign run");
@@ -442,6 +530,8 @@ int RunDatabase::mergeFrom(const std::string& otherPath) {
     for (const RunRecord& r : other.runs(c.id))
       if (insertRun(db_, path_, id, r)) ++added;
   }
+  for (const CalibrationRunRecord& r : other.calibrationRuns())
+    if (insertCalibrationRun(db_, path_, r)) ++added;
   tx.commit();
   return added;
 }

@@ -139,4 +139,12 @@ std::string currentExecutable() {
   return ec ? std::string() : p.string();
 }
 
+Simulator campaignSimulator(bool inProcess, int threads) {
+  if (inProcess) return impactSimulator(threads);
+  IsolatedRunOptions io;
+  io.executable = currentExecutable();
+  io.threads = threads;
+  return isolatedSimulator(io);
+}
+
 }  // namespace blt::campaign

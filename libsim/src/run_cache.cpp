@@ -73,6 +73,11 @@ void RunCache::record(const std::string& key, const nlohmann::json& summary) {
   if (!out) throw InputError(InputLocation::file(path_), "cannot append the run to the run cache", "a writable folder");
 }
 
+std::map<std::string, nlohmann::json> RunCache::runs() const {
+  std::lock_guard lock(mutex_);
+  return runs_;
+}
+
 std::size_t RunCache::size() const {
   std::lock_guard lock(mutex_);
   return runs_.size();

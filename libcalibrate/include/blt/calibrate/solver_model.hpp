@@ -31,9 +31,12 @@
 // diameter (other inputs as measured) for the model's d_c, and its margin ln(d/d_c) says how far wrong it is
 // (about 4 to 6 runs a wrong case; a right case needs none, since the calibrator's outcome residual is then 0).
 //
-// Runs are kept in a run cache (blt/sim/run_cache.hpp) keyed by the scenario file's path, the hash of its text,
-// the model fingerprint and the settings, so a second calibration (or a resumed one) with the same build reruns
-// nothing.
+// Runs go through the campaign machinery (blt/campaign): each is made by a campaign Simulator (by default in this
+// process; the CLI runs each in a process of its own, as campaigns do, so a crash is a failed run with its signal)
+// and recorded as it ends in a run database of the campaigns' kind, keyed by the scenario file's path, the hash of
+// its text, the model fingerprint and the settings (sim::RunCache::key). A second calibration (or a resumed one)
+// with the same build reruns nothing; several calibrations, or machines, may share one file, and `blt campaign
+// merge` joins files. The completed runs of the campaigns in that file (and in reuseDatabase) serve as well.
 
 #include <functional>
 #include <map>
@@ -46,6 +49,8 @@
 #include <nlohmann/json.hpp>
 
 #include "blt/calibrate/model.hpp"
+#include "blt/campaign/database.hpp"
+#include "blt/campaign/runner.hpp"
 #include "blt/sim/run_cache.hpp"
 #include "blt/sim/scenario.hpp"
 
@@ -53,19 +58,28 @@ namespace blt::calibrate {
 
 struct SolverModelOptions {
   std::vector<std::string> settings;  // key=value applied to the scenario before any case or effect
-  std::string cacheFile;              // run cache (JSON lines); empty: no cache kept between calls
-  std::string cardDirectory;          // derived material cards (strength:NAME); empty: beside the cache, or a temp dir
+  // The run database (blt/campaign/database.hpp) the runs are recorded in and recalled from; created if missing.
+  // Empty: one in memory, kept for the model's life only.
+  std::string database;
+  // A run cache of JSON lines (sim::RunCache) that an earlier blt kept the calibration's runs in: its runs are
+  // copied into the database when they are not there yet, so nothing computed is lost. Empty or missing: none.
+  std::string importCache;
+  std::string cardDirectory;          // derived material cards (strength:NAME); empty: beside the database, or a temp dir
   int jobs = 1;                       // runs at once
-  int threads = 1;                    // solver threads per run
+  int threads = 1;                    // solver threads per run (in process)
+  // Makes one run; empty: in this process with `threads` threads (campaign::impactSimulator). A failed run with a
+  // summary (gone unstable) is recorded and its summary used, as a campaign records it; one without (a crash) is
+  // recorded, stops the calibration, and is made again by the next calibration.
+  campaign::Simulator simulator;
   bool outcomeMargin = false;         // bisect the wrongly predicted outcomes for ln(d/d_c)
   // Each prediction averaged over this many alignments of grid and particles (resolution.grid_offset k/N):
   // the outcome becomes the share that perforates, residual velocity and holes the means. Near the limit a
   // single run's verdict turns with the alignment (issue 5); N runs a case smooth that. Not with outcomeMargin.
   int alignments = 1;
-  // A bisection campaign's run database (blt/campaign/database.hpp) to take runs from before simulating: a
-  // completed run of the campaign's own resolution is reused when its campaign ran the same scenario text with the
-  // same --set settings (as strings) and the same model fingerprint, at the same diameter, velocity and angle.
-  // Read only. Empty: none.
+  // Another run database to take campaign runs from before simulating (read only; empty: none). A completed run
+  // of a campaign's own resolution is reused when its campaign ran the same scenario text with the same --set
+  // settings (as strings) and the same model fingerprint, at the same diameter, velocity and angle. The campaigns
+  // of `database` itself are searched the same way.
   std::string reuseDatabase;
   double marginTolerance = 0.03;      // the bisection stops when d_hi / d_lo <= 1 + this
   int marginSteps = 6;                // at most this many factors of 1.25 searched for the other side
@@ -95,10 +109,13 @@ class SolverModel : public Model {
 
   // The settings of one run: the base settings, the case's shot, the effect's.
   std::vector<std::string> settingsFor(const MeasuredCase& c, const EffectSetting& setting) const;
-  // Runs made (not taken from the cache or the database) since construction.
+  // Runs made (not found in the database) since construction.
   int runsMade() const { return runsMade_; }
-  // Runs taken from reuseDatabase since construction (then kept in the cache).
+  // Campaign runs taken (from the database's campaigns or reuseDatabase) since construction, then recorded as the
+  // calibration's.
   int runsReused() const { return runsReused_; }
+  // Runs copied from importCache at construction.
+  int runsImported() const { return runsImported_; }
 
  private:
   // One scenario the shots are run on, with what the run cache and the effects need of it.
@@ -136,7 +153,8 @@ class SolverModel : public Model {
     double diameter, velocity, angle;   // SI
     nlohmann::json summary;             // the fields the cache keeps
   };
-  void loadReusableRuns();
+  void loadReusableRuns(const campaign::RunDatabase& db);
+  void importRunCache(const std::string& path);
   std::optional<nlohmann::json> reusedRun(const Target& t, const std::vector<std::string>& settings) const;
   std::vector<ReusableRun> reusable_;
   // ln(d/d_c) of the model for case c under `setting`, from the run at the measured diameter (`atMeasured`).
@@ -146,10 +164,11 @@ class SolverModel : public Model {
   std::vector<Target> targets_;  // the first is the default target when hasDefault_
   bool hasDefault_ = false;
   std::vector<Effect> effects_;
-  std::unique_ptr<sim::RunCache> cache_;
+  std::unique_ptr<campaign::RunDatabase> runs_;
   std::mutex mutex_;
   int runsMade_ = 0;
   int runsReused_ = 0;
+  int runsImported_ = 0;
 };
 
 }  // namespace blt::calibrate

@@ -1,7 +1,8 @@
 #pragma once
 // The run database of bisection campaigns: one SQLite file holding campaigns (their definitions), their points
 // (bracket, state, result) and every simulation made for them (inputs as settings, scenario hash, verdict,
-// measurements, wall time, tool version, failure reason).
+// measurements, wall time, tool version, failure reason). Calibrations (blt calibrate) keep their runs in the same
+// kind of file, in a table of their own: they bisect nothing, so their runs belong to no campaign or point.
 //
 // Journal mode WAL with synchronous = FULL: every write is one transaction, durable once it returns, so a
 // kill or a power cut loses at most the run in flight. The schema is versioned (PRAGMA user_version); a newer
@@ -67,9 +68,25 @@ struct RunRecord {
   std::string toolVersion, createdUtc;
 };
 
+// A run made for a calibration. Its key is the run cache's (sim::RunCache::key: the scenario's path, the hash of
+// its text, the model fingerprint, the settings), so a run is found again only by the same build.
+struct CalibrationRunRecord {
+  std::string key;
+  std::string scenario;               // the scenario file
+  std::vector<std::string> settings;  // on top of it
+  std::string scenarioHash;           // of its text and the settings (sim::scenarioHash)
+  RunState state = RunState::completed;
+  std::string reason;                 // why it failed
+  nlohmann::json summary;             // the run's summary, as far as the calibration keeps it
+  double wallSeconds = 0;
+  std::string toolVersion;            // the build that made it (sim::buildVersion), or where it was imported from
+  std::string createdUtc;
+};
+
 class RunDatabase {
  public:
-  static constexpr int kSchemaVersion = 1;
+  // 2 added the calibration runs; a file of schema 1 is given the table when opened.
+  static constexpr int kSchemaVersion = 2;
 
   // Opens or creates the file. Throws InputError naming it when it is not a blt run database, or a newer one.
   explicit RunDatabase(const std::string& path);
@@ -95,9 +112,17 @@ class RunDatabase {
   RunRecord recordRun(std::int64_t campaign, const RunRecord& r);
   std::vector<RunRecord> runs(std::int64_t campaign) const;
 
-  // Copies every campaign, point and run of another run database into this one, in one transaction. A campaign
-  // present in both must have the same definition; runs are matched by scenario hash; a point takes the more
-  // advanced state (resolved or unresolved over started over pending). Returns the runs added.
+  // The calibration run of that key; nullopt when none was recorded.
+  std::optional<CalibrationRunRecord> findCalibrationRun(const std::string& key) const;
+  // Records a calibration run. A completed run replaces a failed one of the same key (the run was made again);
+  // otherwise the one recorded first stays (another process made it meanwhile). Returns the recorded one.
+  CalibrationRunRecord recordCalibrationRun(const CalibrationRunRecord& r);
+  std::vector<CalibrationRunRecord> calibrationRuns() const;
+
+  // Copies every campaign, point and run, and every calibration run, of another run database into this one, in one
+  // transaction. A campaign present in both must have the same definition; runs are matched by scenario hash and
+  // calibration runs by key as recordCalibrationRun does; a point takes the more advanced state (resolved or
+  // unresolved over started over pending). Returns the runs added (of both kinds).
   int mergeFrom(const std::string& otherPath);
 
   // PRAGMA integrity_check; "ok" when the file is sound.

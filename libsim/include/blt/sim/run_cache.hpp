@@ -2,7 +2,8 @@
 // Finished impact runs kept in a file so that a report or a calibration started again runs nothing twice: one
 // JSON line per run (its key and its summary), appended and flushed as the run ends. A line cut short by a kill
 // is skipped when the file is read, so at most the run in flight is lost. Several threads may share one cache.
-// (A bisection campaign keeps its runs in its SQLite database instead: blt/campaign/database.hpp.)
+// The validation report keeps its runs here; bisection campaigns and calibrations keep theirs in a run database
+// (blt/campaign/database.hpp), whose calibration runs carry this cache's keys.
 //
 // A run's key names its scenario by the hash of the scenario's text and the model by modelFingerprint(), so an
 // edited scenario file, an edited material card or a changed solver is run again instead of replayed.
@@ -42,6 +43,7 @@ class RunCache {
   // Appends the run; throws InputError naming the file when it cannot be written.
   void record(const std::string& key, const nlohmann::json& summary);
   std::size_t size() const;
+  std::map<std::string, nlohmann::json> runs() const;  // every run, by key
   std::size_t loaded() const { return loaded_; }  // runs read from the file at construction
   const std::string& path() const { return path_; }
 
