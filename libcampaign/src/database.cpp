@@ -126,6 +126,12 @@ SchemaWork schemaWork(sqlite3* db, const std::string& file) {
 }
 
 const char* stateKey(RunState s) { return s == RunState::completed ? "completed" : "failed"; }
+RunState runStateFrom(const std::string& s) { return s == "completed" ? RunState::completed : RunState::failed; }
+
+// A summary as stored: NaN and infinities are no JSON, and nlohmann::json writes them as null; none is {}.
+std::string summaryText(const nlohmann::json& j) {
+  return j.is_null() ? std::string("{}") : j.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+}
 
 PointState pointStateFrom(const std::string& s) {
   if (s == "started") return PointState::started;
@@ -178,7 +184,7 @@ RunRecord readRun(const sql::Query& q) {
   r.attempt = static_cast<int>(q.integer(3));
   r.settings = nlohmann::json::parse(q.text(4)).get<std::vector<std::string>>();
   r.scenarioHash = q.text(5);
-  r.state = q.text(6) == "completed" ? RunState::completed : RunState::failed;
+  r.state = runStateFrom(q.text(6));
   r.perforated = q.integer(7) != 0;
   r.settled = q.integer(8) != 0;
   r.diameter = q.real(9);
@@ -221,9 +227,7 @@ bool insertRun(sqlite3* db, const std::string& file, std::int64_t campaign, cons
   q.bind(6, r.scenarioHash).bind(7, stateKey(r.state)).bind(8, r.perforated).bind(9, r.settled);
   q.bind(10, r.diameter).bind(11, r.velocity).bind(12, r.angle);
   q.bind(13, std::isfinite(r.residualVelocity) ? r.residualVelocity : 0.0).bind(14, r.reason);
-  // NaN and infinities are no JSON; the summary's are written as null by nlohmann::json.
-  q.bind(15, r.measurements.is_null() ? std::string("{}") : r.measurements.dump(-1, ' ', false,
-                                                                                  nlohmann::json::error_handler_t::replace));
+  q.bind(15, summaryText(r.measurements));
   q.bind(16, r.wallSeconds).bind(17, r.toolVersion).bind(18, r.createdUtc.empty() ? nowUtcIso8601() : r.createdUtc);
   q.run();
   return q.changes() > 0;
@@ -238,7 +242,7 @@ CalibrationRunRecord readCalibrationRun(const sql::Query& q) {
   r.scenario = q.text(1);
   r.settings = nlohmann::json::parse(q.text(2)).get<std::vector<std::string>>();
   r.scenarioHash = q.text(3);
-  r.state = q.text(4) == "completed" ? RunState::completed : RunState::failed;
+  r.state = runStateFrom(q.text(4));
   r.reason = q.text(5);
   r.summary = nlohmann::json::parse(q.text(6));
   r.wallSeconds = q.real(7);
@@ -260,8 +264,7 @@ bool insertCalibrationRun(sqlite3* db, const std::string& file, const Calibratio
                "recording a calibration run");
   q.bind(1, r.key).bind(2, r.scenario).bind(3, nlohmann::json(r.settings).dump()).bind(4, r.scenarioHash);
   q.bind(5, stateKey(r.state)).bind(6, r.reason);
-  q.bind(7, r.summary.is_null() ? std::string("{}")
-                                : r.summary.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace));
+  q.bind(7, summaryText(r.summary));
   q.bind(8, r.wallSeconds).bind(9, r.toolVersion).bind(10, r.createdUtc.empty() ? nowUtcIso8601() : r.createdUtc);
   q.run();
   return q.changes() > 0;
