@@ -219,17 +219,25 @@ ResidualVelocityStandIn shiftOrScaleModel() {
   return ResidualVelocityStandIn({{{"shift", "adds to v_r", kShift}, false},
                                   {{"scale", "scales v_r", {"gain", "", "gain", 0, 0.5, 0}}, true}});
 }
+// Twelve shots at V = 200, 200 + step, ... m/s with v_r = V/2 + 20 m/s and 1 m/s of scatter from `seed`.
+MeasuredData shiftedHalfVelocityData(int step, int seed) {
+  SeededGaussian gauss(seed);
+  std::ostringstream csv;
+  csv << "case,impact_velocity_m_s,residual_velocity_m_s\n";
+  for (int k = 0; k < 12; ++k) {
+    const double v = 200 + step * k;
+    csv << "s" << k << "," << v << "," << v / 2 + 20 + gauss() << "\n";
+  }
+  return parse(csv.str());
+}
+
 }  // namespace
 
 TEST_CASE("calibrate: an also-accepted effect that the data tell from the winner is reported as worse, not a rival") {
   // Data: v_r = V/2 + 20 m/s, V from 200 to 750 m/s, with 1 m/s of seeded scatter. A gain fitted to a constant
   // offset (about 0.074) leaves -13 to +8 m/s at the ends of the range, 7 m/s RMS: far better than the base's
   // 20 m/s, so accepted, but worse than the shift in nearly every case.
-  SeededGaussian gauss(5);
-  std::ostringstream csv;
-  csv << "case,impact_velocity_m_s,residual_velocity_m_s\n";
-  for (int k = 0; k < 12; ++k) csv << "s" << k << "," << 200 + 50 * k << "," << 100 + 25 * k + 20 + gauss() << "\n";
-  const MeasuredData data = parse(csv.str());
+  const MeasuredData data = shiftedHalfVelocityData(50, 5);
   ResidualVelocityStandIn model = shiftOrScaleModel();
   const CalibrationResult r = blt::calibrate::calibrate(model, data);
   REQUIRE(r.winningFit() != nullptr);
@@ -295,11 +303,7 @@ TEST_CASE("calibrate: synthetic outcomes from a perforating share p are perforat
 
 TEST_CASE("calibrate: when two effects explain the data equally, the second is reported as also accepted") {
   // Data: v_r = V/2 + 20 m/s with seeded scatter of 1 m/s; both effects fit a shift of about 20.
-  SeededGaussian gauss(11);
-  std::ostringstream csv;
-  csv << "case,impact_velocity_m_s,residual_velocity_m_s\n";
-  for (int k = 0; k < 12; ++k) csv << "s" << k << "," << 200 + 10 * k << "," << 100 + 5 * k + 20 + gauss() << "\n";
-  const MeasuredData data = parse(csv.str());
+  const MeasuredData data = shiftedHalfVelocityData(10, 11);
   ResidualVelocityStandIn model = twinEffectModel();
   const CalibrationResult r = blt::calibrate::calibrate(model, data);
   REQUIRE(r.winningFit() != nullptr);
