@@ -634,6 +634,8 @@ TEST_CASE("campaign CLI: killed mid-campaign the database is consistent and the 
       kQuickCampaign);
   const std::string exe = std::string(BLT_BINARY_DIR) + "/bin/blt";
   const std::string killed = (dir / "killed.sqlite").string();
+  const fs::path temp = dir / "tmp";  // the killed campaign's temporary directory, to see what it leaves there
+  fs::create_directories(temp);
 
   std::fflush(nullptr);  // else the child's copy of unwritten test output would be written twice
   const pid_t pid = fork();
@@ -642,6 +644,7 @@ TEST_CASE("campaign CLI: killed mid-campaign the database is consistent and the 
     const int devNull = open("/dev/null", O_WRONLY);
     dup2(devNull, 1);
     dup2(devNull, 2);
+    setenv("TMPDIR", temp.c_str(), 1);
     execl(exe.c_str(), exe.c_str(), "campaign", "run", file.c_str(), "--db", killed.c_str(), "--jobs", "2", "--quiet",
           static_cast<char*>(nullptr));
     _exit(127);
@@ -670,6 +673,9 @@ TEST_CASE("campaign CLI: killed mid-campaign the database is consistent and the 
   int status = 0;
   REQUIRE(waitpid(pid, &status, 0) == pid);
   CHECK(WIFSIGNALED(status));
+  // The capture files of the runs it had in flight went with it.
+  for (const auto& entry : fs::directory_iterator(temp))
+    CHECK_MESSAGE(entry.path().filename().string().rfind("blt-run-", 0) != 0, "left behind: ", entry.path().string());
   {
     const RunDatabase db(killed);
     CHECK(db.integrityCheck() == "ok");

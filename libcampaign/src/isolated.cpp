@@ -9,8 +9,6 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
-#include <fstream>
-#include <sstream>
 #include <stdexcept>
 #include <vector>
 
@@ -20,33 +18,38 @@ namespace blt::campaign {
 
 namespace {
 
-// A file in the temporary directory for one of the child's output streams; removed with the object.
+// A file for one of the child's output streams. Its name is removed as soon as it is made: the child writes
+// through the descriptor and the parent reads through it, so a campaign killed mid-run (SIGKILL, no destructors)
+// leaves nothing in the temporary directory.
 class CaptureFile {
  public:
   explicit CaptureFile(const char* stream) {
     std::string pattern = (std::filesystem::temp_directory_path() / ("blt-run-" + std::string(stream) + "-XXXXXX")).string();
     fd_ = mkstemp(pattern.data());
-    if (fd_ < 0) throw std::runtime_error("cannot make a file for the run's " + std::string(stream) + ": " + std::strerror(errno));
-    path_ = pattern;
+    if (fd_ < 0)
+      throw std::runtime_error("cannot make a file in " + std::filesystem::temp_directory_path().string() +
+                               " for the run's " + stream + ": " + std::strerror(errno));
+    unlink(pattern.c_str());
   }
-  ~CaptureFile() {
-    close(fd_);
-    std::error_code ignored;
-    std::filesystem::remove(path_, ignored);
-  }
+  ~CaptureFile() { close(fd_); }
   CaptureFile(const CaptureFile&) = delete;
   CaptureFile& operator=(const CaptureFile&) = delete;
   int fd() const { return fd_; }
   std::string text() const {
-    std::ifstream in(path_, std::ios::binary);
-    std::ostringstream s;
-    s << in.rdbuf();
-    return s.str();
+    std::string s;
+    char buffer[65536];
+    for (off_t at = 0;;) {
+      const ssize_t n = pread(fd_, buffer, sizeof buffer, at);
+      if (n < 0 && errno == EINTR) continue;
+      if (n <= 0) break;
+      s.append(buffer, static_cast<std::size_t>(n));
+      at += n;
+    }
+    return s;
   }
 
  private:
   int fd_ = -1;
-  std::string path_;
 };
 
 std::string tail(const std::string& text, std::size_t bytes) {
@@ -133,16 +136,11 @@ Simulator isolatedSimulator(const IsolatedRunOptions& options) {
   return [options](const sim::ImpactScenario& scenario) { return runIsolated(options, scenario); };
 }
 
-std::string currentExecutable() {
-  std::error_code ec;
-  const auto p = std::filesystem::read_symlink("/proc/self/exe", ec);
-  return ec ? std::string() : p.string();
-}
-
 Simulator campaignSimulator(bool inProcess, int threads) {
   if (inProcess) return impactSimulator(threads);
   IsolatedRunOptions io;
-  io.executable = currentExecutable();
+  // The running image itself, not its path: a build that replaces the file mid-campaign does not mix programs.
+  io.executable = "/proc/self/exe";
   io.threads = threads;
   return isolatedSimulator(io);
 }

@@ -24,10 +24,8 @@ struct IsolatedRunOptions {
 // Throws InputError when the executable is not there.
 Simulator isolatedSimulator(const IsolatedRunOptions& options);
 
-// The program this process runs (/proc/self/exe), for isolatedSimulator from the blt CLI itself.
-std::string currentExecutable();
-
-// What the CLI's campaigns and calibrations run with: each run in a process of this program (isolatedSimulator),
+// What the CLI's campaigns and calibrations run with: each run in a process of this program (isolatedSimulator on
+// /proc/self/exe, the image this process runs, so rebuilding blt mid-campaign does not mix two builds' runs),
 // so that a crash is a failed run and not the end of the job; with inProcess (or under MPI, whose ranks are
 // processes already) on threads of this one (impactSimulator). `threads`: OpenMP threads per run.
 Simulator campaignSimulator(bool inProcess, int threads);
