@@ -1,7 +1,9 @@
 // Impact scenarios, the perforation verdict, hole sizes and bisection (issue 5).
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -447,4 +449,131 @@ TEST_CASE("blt sim run and blt sim bisect from the command line") {
   CHECK(ens["perforated_fraction"].get<double>() == doctest::Approx(perforated / 2.0));
   CHECK(contains(runBlt("sim run '" + file.string() + "' --ensemble 0").output, "--ensemble"));
   fs::remove(file);
+}
+
+namespace {
+std::string readText(const fs::path& p) {
+  std::ifstream in(p);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+// The frame times a .pvd lists, in order.
+std::vector<std::string> pvdTimes(const fs::path& p) {
+  std::vector<std::string> times;
+  const std::string text = readText(p);
+  for (std::size_t at = text.find("timestep=\""); at != std::string::npos; at = text.find("timestep=\"", at + 1))
+    times.push_back(text.substr(at + 10, text.find('"', at + 10) - at - 10));
+  return times;
+}
+}  // namespace
+
+TEST_CASE("impact: a run killed after a checkpoint and resumed ends exactly as the uninterrupted run") {
+  // Reference: the uninterrupted run of the same scenario (one thread, so both are bit for bit reproducible).
+  // The interrupted run stops at a step limit twice; the second checkpoint is then replaced by the first, as a
+  // kill after the first would leave it, with energy and verdict rows written past it that must be dropped.
+  // A steel sphere through 0.2 mm of plate settles at about 5.8 us: perforated, and stopped once the mass behind
+  // the wall, the residual velocity and the hole have held still over the last half of the run, a look back
+  // past the first checkpoint (at 60 % of the steps), so the earlier verdicts must come back with it.
+  const std::vector<std::string> settings = {"target.layer.1.thickness=0.2mm", "projectile.velocity=4km/s",
+                                             "projectile.material=steel_4340", "run.max_time=10us"};
+  const ImpactScenario sc = parseScenario(plateScenario(), "plate.toml", settings);
+  const fs::path base = fs::temp_directory_path() / ("blt_test_resume_" + std::to_string(::getpid()));
+  fs::remove_all(base);
+  ImpactRunOptions o;
+  o.threads = 1;
+  o.outputDirectory = (base / "straight").string();
+  const ImpactResult straight = runImpact(sc, o);
+  REQUIRE(straight.verdict.perforated);
+  REQUIRE(std::string(toString(straight.status)) == "stopped");  // settled: the steadiness history matters to when it stops
+  const long steps = straight.summary["steps"].get<long>();
+  REQUIRE(steps > 100);
+
+  const fs::path dir = base / "interrupted";
+  o.outputDirectory = dir.string();
+  o.checkpointSeconds = 1e6;  // only the one written at the end of each part
+  o.maxSteps = steps * 6 / 10;
+  const ImpactResult first = runImpact(sc, o);
+  CHECK(std::string(toString(first.status)) == "step-limit");
+  fs::copy_file(dir / "plate_checkpoint.bin", base / "first_checkpoint.bin");
+  o.resume = true;
+  o.maxSteps = steps * 2 / 10;
+  const ImpactResult second = runImpact(sc, o);
+  CHECK(second.summary["steps"] == steps * 6 / 10 + steps * 2 / 10);
+  CHECK(second.resumedAt == first.endTime);
+  fs::copy_file(base / "first_checkpoint.bin", dir / "plate_checkpoint.bin", fs::copy_options::overwrite_existing);
+  o.maxSteps = -1;
+  const ImpactResult resumed = runImpact(sc, o);
+
+  CHECK(resumed.resumedAt == first.endTime);
+  CHECK(std::string(toString(resumed.status)) == std::string(toString(straight.status)));
+  CHECK(resumed.message.find(straight.message) == 0);  // with "; resumed from a checkpoint at ..." after it
+  for (const char* key : {"steps", "time_s", "perforated", "settled", "residual_velocity_m_s",
+                          "mass_behind_rear_wall_fraction", "hole_size_mm", "opening_size_mm", "energy_initial",
+                          "energy_final", "rearward_kinetic_energy_fraction"})
+    CHECK_MESSAGE(resumed.summary[key] == straight.summary[key], key);
+  CHECK(readText(dir / "plate_energy.csv") == readText(base / "straight" / "plate_energy.csv"));
+  CHECK(readText(dir / "verdict_history.csv") == readText(base / "straight" / "verdict_history.csv"));
+  // The frames: the uninterrupted run's, and the last state of the first part where it stopped at the limit.
+  const std::vector<std::string> framesStraight = pvdTimes(base / "straight" / "plate.pvd");
+  const std::vector<std::string> framesResumed = pvdTimes(dir / "plate.pvd");
+  CHECK(framesResumed.size() == framesStraight.size() + 1);
+  for (const std::string& t : framesStraight)
+    CHECK(std::find(framesResumed.begin(), framesResumed.end(), t) != framesResumed.end());
+  for (std::size_t k = 0; k < framesResumed.size(); ++k) {
+    char name[32];
+    std::snprintf(name, sizeof name, "plate_%04zu.vtu", k);
+    CHECK_MESSAGE(fs::exists(dir / name), name);
+  }
+  char past[32];
+  std::snprintf(past, sizeof past, "plate_%04zu.vtu", framesResumed.size());
+  CHECK_FALSE(fs::exists(dir / past));
+
+  // Another shot with the same particle count is another model: refused, the checkpoint named.
+  o.maxSteps = 1;
+  std::vector<std::string> other = settings;
+  other.push_back("projectile.velocity=4.1km/s");
+  const std::string refused = messageOf([&] { runImpact(parseScenario(plateScenario(), "plate.toml", other), o); });
+  CHECK(contains(refused, "plate_checkpoint.bin"));
+  CHECK(contains(refused, "another model"));
+  fs::remove_all(base);
+}
+
+TEST_CASE("blt sim run --resume runs a finished run longer, to the state of one run to the longer end time") {
+  // Reference: the same shot run straight to 2 us. The shot at 3 km/s through 4 mm of plate does not settle by
+  // then, so both runs go to the end time and must end in the same state.
+  const fs::path base = fs::temp_directory_path() / ("blt_test_longer_" + std::to_string(::getpid()));
+  fs::remove_all(base);
+  fs::create_directories(base);
+  const fs::path file = base / "plate.toml";
+  {
+    std::ofstream out(file);
+    out << plateScenario();
+  }
+  const std::string shot = "sim run '" + file.string() +
+                           "' --set resolution.particle_spacing=0.2mm --set target.layer.1.thickness=4mm --threads 1 ";
+  const BltRun straight = runBlt(shot + "--set run.max_time=2us --json");
+  REQUIRE(straight.status == 0);
+  const auto a = nlohmann::json::parse(straight.output.substr(straight.output.find('{')));
+  REQUIRE(a["status"] == "completed");
+  const std::string out = " --out '" + (base / "run").string() + "'";
+  REQUIRE(runBlt(shot + "--set run.max_time=1us --checkpoint-every 1h" + out).status == 0);
+  CHECK(fs::exists(base / "run" / "plate_checkpoint.bin"));
+  const BltRun longer = runBlt(shot + "--set run.max_time=2us --resume --json" + out);
+  REQUIRE(longer.status == 0);
+  const auto b = nlohmann::json::parse(longer.output.substr(longer.output.find('{')));
+  CHECK(b["resumed_at_time_s"].get<double>() == doctest::Approx(1e-6).epsilon(0.01));
+  for (const char* key : {"steps", "time_s", "perforated", "energy_final", "hole_size_mm", "kinetic_energy_fraction"})
+    CHECK_MESSAGE(b[key] == a[key], key);
+
+  // Bad requests say which flag and what is wanted.
+  const BltRun noDir = runBlt(shot + "--resume");
+  CHECK(noDir.status != 0);
+  CHECK(contains(noDir.output, "--resume"));
+  CHECK(contains(noDir.output, "--out DIR"));
+  const BltRun none = runBlt(shot + "--resume --out '" + (base / "empty").string() + "'");
+  CHECK(none.status != 0);
+  CHECK(contains(none.output, "plate_checkpoint.bin"));
+  CHECK(contains(runBlt(shot + "--ensemble 2 --checkpoint-every 1min" + out).output, "not an ensemble"));
+  CHECK(contains(runBlt(shot + "--checkpoint-every 3mm" + out).output, "--checkpoint-every"));
+  fs::remove_all(base);
 }

@@ -6,6 +6,7 @@
 #include <fstream>
 
 #include "blt/core/units.hpp"
+#include "blt/sim/output.hpp"
 
 namespace blt::sim {
 
@@ -36,6 +37,44 @@ bool holesSteady(const ImpactModel<D>& model, const PerforationVerdict& now, con
   return true;
 }
 
+// An earlier check's verdict as a checkpoint keeps it (impact runs resumed from one look back over them).
+nlohmann::json verdictJson(const PerforationVerdict& v) {
+  nlohmann::json holes = nlohmann::json::array();
+  for (const LayerHole& h : v.holes)
+    holes.push_back({h.name, h.horizontal, h.vertical, h.openingHorizontal, h.openingVertical});
+  return {{"perforated", v.perforated},
+          {"settled", v.settled},
+          {"reason", v.reason},
+          {"mass_behind_kg", v.massBehind},
+          {"mass_behind_fraction", v.massBehindFraction},
+          {"rear_opening", v.rearOpening},
+          {"residual_velocity_m_s", v.residualVelocity},
+          {"residual_fragment_mass_kg", v.residualFragmentMass},
+          {"residual_from", v.residualFrom},
+          {"kinetic_fraction", v.kineticFraction},
+          {"rearward_kinetic_fraction", v.rearwardKineticFraction},
+          {"holes_m", holes}};
+}
+
+PerforationVerdict verdictFromJson(const nlohmann::json& j) {
+  PerforationVerdict v;
+  v.perforated = j.at("perforated").get<bool>();
+  v.settled = j.at("settled").get<bool>();
+  v.reason = j.at("reason").get<std::string>();
+  v.massBehind = j.at("mass_behind_kg").get<double>();
+  v.massBehindFraction = j.at("mass_behind_fraction").get<double>();
+  v.rearOpening = j.at("rear_opening").get<bool>();
+  v.residualVelocity = j.at("residual_velocity_m_s").get<double>();
+  v.residualFragmentMass = j.at("residual_fragment_mass_kg").get<double>();
+  v.residualFrom = j.at("residual_from").get<std::string>();
+  v.kineticFraction = j.at("kinetic_fraction").get<double>();
+  v.rearwardKineticFraction = j.at("rearward_kinetic_fraction").get<double>();
+  for (const auto& h : j.at("holes_m"))
+    v.holes.push_back({h[0].get<std::string>(), h[1].get<double>(), h[2].get<double>(), h[3].get<double>(),
+                       h[4].get<double>()});
+  return v;
+}
+
 template <int D>
 ImpactResult runModel(const ImpactScenario& sc, const ImpactRunOptions& options) {
   ImpactModel<D> model = buildImpactModel<D>(sc, options.threads);
@@ -47,6 +86,15 @@ ImpactResult runModel(const ImpactScenario& sc, const ImpactRunOptions& options)
   ro.outputDirectory = options.outputDirectory;
   ro.name = sc.name;
   ro.frames = sc.run.frames;
+  ro.checkpointSeconds = options.checkpointSeconds;
+  ro.maxSteps = options.maxSteps;
+  const std::filesystem::path historyFile = std::filesystem::path(options.outputDirectory) / "verdict_history.csv";
+  if (options.resume) {
+    if (options.outputDirectory.empty())
+      throw InputError(InputLocation::flag("--resume"), "there is no output directory to resume from",
+                       "--out DIR, the directory of the run that wrote DIR/" + sc.name + "_checkpoint.bin");
+    ro.resumeFrom = (std::filesystem::path(options.outputDirectory) / (sc.name + "_checkpoint.bin")).string();
+  }
   RunHooks<D> hooks;
   hooks.progress = options.progress;
   // After a perforation the run goes on until the mass behind the wall, the residual velocity and the holes have
@@ -55,22 +103,37 @@ ImpactResult runModel(const ImpactScenario& sc, const ImpactRunOptions& options)
   std::vector<std::pair<double, PerforationVerdict>> checks;
   // The verdict at every check, for a plot of why a run stopped when it did (or did not).
   std::ofstream history;
-  if (!options.outputDirectory.empty()) {
+  std::size_t historyRows = 0;
+  const bool keepHistory = !options.outputDirectory.empty();
+  if (keepHistory && !options.resume) {
     std::filesystem::create_directories(options.outputDirectory);
-    history.open(std::filesystem::path(options.outputDirectory) / "verdict_history.csv");
+    history.open(historyFile);
     history << "time_s,kinetic_fraction,rearward_kinetic_fraction,mass_behind_fraction,rear_opening,perforated,"
                "settled\n";
   }
-  if (sc.run.stopWhenSettled || history.is_open())
+  hooks.saveState = [&] {
+    nlohmann::json earlier = nlohmann::json::array();
+    for (const auto& [time, v] : checks) earlier.push_back({time, verdictJson(v)});
+    return nlohmann::json{{"checks", earlier}, {"verdict_history_rows", historyRows}};
+  };
+  hooks.restoreState = [&](const nlohmann::json& state) {
+    for (const auto& c : state.at("checks")) checks.emplace_back(c[0].get<double>(), verdictFromJson(c[1]));
+    historyRows = state.at("verdict_history_rows").get<std::size_t>();
+    keepFirstLines(historyFile.string(), 1 + historyRows);
+    history.open(historyFile, std::ios::app);
+  };
+  if (sc.run.stopWhenSettled || keepHistory)
     hooks.stop = [&](const Solver<D>& s) {
       // Holes only once perforated (the last check was): steadiness compares them, and 3D holes cost a voxel
       // grid per layer. The first perforated check has none, so steadiness waits for the next.
       const bool holes = sc.run.stopWhenSettled && !checks.empty() && checks.back().second.perforated;
       const PerforationVerdict v = assessPerforation<D>(model, sc.verdict, initialKinetic, holes);
-      if (history.is_open())
+      if (history.is_open()) {
         history << s.time() << ',' << v.kineticFraction << ',' << v.rearwardKineticFraction << ','
                 << v.massBehindFraction << ',' << v.rearOpening << ',' << v.perforated << ',' << v.settled
                 << std::endl;
+        ++historyRows;
+      }
       if (!sc.run.stopWhenSettled) return std::string();
       // The latest earlier check at least kSteadyWindow of the elapsed time ago.
       const PerforationVerdict* then = nullptr;
@@ -97,6 +160,7 @@ ImpactResult runModel(const ImpactScenario& sc, const ImpactRunOptions& options)
   result.particles = solver.particles().size();
   result.wallSeconds = r.wallSeconds;
   result.endTime = r.time;
+  result.resumedAt = r.resumedAt;
 
   const PerforationVerdict& v = result.verdict;
   nlohmann::json layers = nlohmann::json::array(), holes = nlohmann::json::array(), openings = nlohmann::json::array();
@@ -148,6 +212,7 @@ ImpactResult runModel(const ImpactScenario& sc, const ImpactRunOptions& options)
       {"particles", result.particles},
       {"inactive_particles", solver.particles().size() - solver.activeParticles()},
       {"wall_time_s", r.wallSeconds},
+      {"resumed_at_time_s", std::isnan(r.resumedAt) ? nlohmann::json() : nlohmann::json(r.resumedAt)},
       {"run", r.summary}};
   result.summary = doc;
   if (!options.outputDirectory.empty()) {

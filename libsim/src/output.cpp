@@ -1,10 +1,13 @@
 #include "blt/sim/output.hpp"
 
 #include <cmath>
+#include <cstdio>
 #include <cstdint>
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
+
+#include "blt/core/error.hpp"
 
 namespace blt::sim {
 
@@ -116,6 +119,30 @@ void writeVtu(const std::string& path, const Particles<D>& particles) {
 
 template void writeVtu<2>(const std::string&, const Particles<2>&);
 template void writeVtu<3>(const std::string&, const Particles<3>&);
+
+void keepFirstLines(const std::string& path, std::size_t lines) {
+  std::ifstream in(path);
+  if (!in) throw InputError(InputLocation::file(path), "cannot read it to go on from a checkpoint", "the file the run wrote");
+  std::string kept, line;
+  std::size_t count = 0;
+  while (count < lines && std::getline(in, line)) {
+    kept += line;
+    kept += '\n';
+    ++count;
+  }
+  in.close();
+  if (count < lines)
+    throw InputError(InputLocation::file(path),
+                     "holds " + std::to_string(count) + " lines, the checkpoint says " + std::to_string(lines),
+                     "the file of the run that wrote the checkpoint");
+  const std::string tmp = path + ".tmp";  // a kill while rewriting leaves the old file whole
+  {
+    std::ofstream out(tmp, std::ios::trunc);
+    out << kept;
+    if (!out) throw std::runtime_error("cannot write " + tmp);
+  }
+  if (std::rename(tmp.c_str(), path.c_str()) != 0) throw std::runtime_error("cannot write " + path);
+}
 
 void PvdSeries::add(double time, const std::string& file) {
   frames_.emplace_back(time, file);

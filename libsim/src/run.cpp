@@ -11,6 +11,7 @@
 #include <tuple>
 
 #include "blt/core/error.hpp"
+#include "blt/core/units.hpp"
 #include "blt/sim/output.hpp"
 
 namespace blt::sim {
@@ -60,6 +61,27 @@ long fastestParticle(const Solver<D>& s) {
   return best;
 }
 
+EnergyBalance energyFromJson(const nlohmann::json& j) {
+  EnergyBalance e;
+  e.kinetic = j.at("kinetic_J").get<double>();
+  e.internal = j.at("internal_J").get<double>();
+  e.plasticWork = j.at("plastic_work_J").get<double>();
+  e.viscousWork = j.at("viscous_work_J").get<double>();
+  e.contactDissipation = j.at("contact_dissipation_J").get<double>();
+  e.boundaryWork = j.at("boundary_work_J").get<double>();
+  return e;
+}
+
+// Frames NAME_KKKK.vtu from index `first` on: what an interrupted run wrote after its checkpoint and the
+// resumed one did not write again.
+void removeFramesFrom(const std::filesystem::path& dir, const std::string& name, int first) {
+  for (int k = first;; ++k) {
+    char file[64];
+    std::snprintf(file, sizeof file, "_%04d.vtu", k);
+    if (!std::filesystem::remove(dir / (name + file))) return;
+  }
+}
+
 std::string when(long step, double time) {
   std::ostringstream out;
   out.precision(5);
@@ -75,12 +97,34 @@ RunResult run(Solver<D>& solver, const RunOptions& options, const RunHooks<D>& h
   using Clock = std::chrono::steady_clock;
   RunResult result;
   const bool writing = !options.outputDirectory.empty();
+  const bool resuming = !options.resumeFrom.empty();
+  const bool checkpointing = writing && options.checkpointSeconds > 0;
   const fs::path dir(options.outputDirectory);
   if (writing) fs::create_directories(dir);
+  if (resuming && !writing)
+    throw std::invalid_argument("a resumed run needs the output directory of the run it continues");
+
+  // The state the run started from, so that a checkpoint is only resumed on the model it was made of.
+  const std::string startHash = checkpointing || resuming ? particleStateHash<D>(solver) : std::string();
+  nlohmann::json restored;
+  if (resuming) {
+    restored = readCheckpoint<D>(options.resumeFrom, solver);
+    const InputLocation where = InputLocation::file(options.resumeFrom);
+    if (!restored.is_object() || !restored.contains("start_state_hash"))
+      throw InputError(where, "the checkpoint holds no run state", "a checkpoint written by a run");
+    if (restored["start_state_hash"] != startHash)
+      throw InputError(where,
+                       "the checkpoint's run started from another model (start state " +
+                           restored["start_state_hash"].get<std::string>() + ", this one " + startHash + ")",
+                       "the scenario and settings of the run that wrote it (only the end time may differ)");
+    result.resumedAt = solver.time();
+  }
 
   std::ofstream energyCsv;
   std::unique_ptr<PvdSeries> pvd;
   int frameIndex = 0;
+  long energyRows = 0;
+  std::vector<std::pair<double, std::string>> frames;
   auto writeFrame = [&]() {
     if (!writing) return;
     char name[64];
@@ -88,6 +132,7 @@ RunResult run(Solver<D>& solver, const RunOptions& options, const RunHooks<D>& h
     const std::string file = options.name + name;
     writeVtu<D>((dir / file).string(), solver.particles());
     pvd->add(solver.time(), file);
+    frames.emplace_back(solver.time(), file);
     result.files.push_back(file);
   };
   auto writeEnergy = [&](const EnergyBalance& e) {
@@ -96,39 +141,81 @@ RunResult run(Solver<D>& solver, const RunOptions& options, const RunHooks<D>& h
               << e.internal << ',' << e.plasticWork << ',' << e.viscousWork << ',' << e.contactDissipation << ','
               << e.boundaryWork << ',' << e.total() << ',' << solver.activeParticles() << '\n';
     energyCsv.flush();
+    ++energyRows;
   };
+  const std::string csv = options.name + "_energy.csv";
   if (writing) {
     pvd = std::make_unique<PvdSeries>((dir / (options.name + ".pvd")).string());
     result.files.push_back(options.name + ".pvd");
-    const std::string csv = options.name + "_energy.csv";
-    energyCsv.open(dir / csv);
+    if (resuming) {
+      // Rows written after the checkpoint (by the interrupted run) are dropped: the resumed run writes them again.
+      energyRows = restored["energy_rows"].get<long>();
+      keepFirstLines((dir / csv).string(), 1 + energyRows);
+      energyCsv.open(dir / csv, std::ios::app);
+    } else {
+      energyCsv.open(dir / csv);
+    }
     if (!energyCsv) throw std::runtime_error("cannot write " + (dir / csv).string());
     energyCsv.precision(10);
-    energyCsv << "step,time_s,time_step_s,kinetic_J,internal_J,plastic_work_J,viscous_work_J,"
-                 "contact_dissipation_J,boundary_work_J,total_J,active_particles\n";
+    if (!resuming)
+      energyCsv << "step,time_s,time_step_s,kinetic_J,internal_J,plastic_work_J,viscous_work_J,"
+                   "contact_dissipation_J,boundary_work_J,total_J,active_particles\n";
     result.files.push_back(csv);
   }
 
   const auto start = Clock::now();
-  result.initialEnergy = solver.energies();
-  const double reference = result.initialEnergy.total();
-  const double firstDt = solver.timeStep();
-  const long firstStep = solver.stepCount();
-  writeEnergy(result.initialEnergy);
-  writeFrame();
-
+  double wallBefore = 0, updates = 0;
+  double firstDt = solver.timeStep();
+  long firstStep = solver.stepCount();
   const double frameEvery = options.frames > 0 ? options.endTime / options.frames : 2 * options.endTime;
   const double energyEvery = options.energySamples > 0 ? options.endTime / options.energySamples : options.endTime;
   double nextFrame = solver.time() + frameEvery;
   double nextEnergy = solver.time() + energyEvery;
+  bool frameCurrent = true;
+  if (resuming) {
+    result.initialEnergy = energyFromJson(restored["initial_energy"]);
+    firstDt = restored["first_time_step_s"].get<double>();
+    firstStep = restored["first_step"].get<long>();
+    nextFrame = restored["next_frame_s"].get<double>();
+    nextEnergy = restored["next_energy_s"].get<double>();
+    wallBefore = restored["wall_time_s"].get<double>();
+    updates = restored["particle_updates"].get<double>();
+    for (const auto& f : restored["frames"]) {
+      pvd->add(f[0].get<double>(), f[1].get<std::string>());
+      frames.emplace_back(f[0].get<double>(), f[1].get<std::string>());
+      result.files.push_back(f[1].get<std::string>());
+    }
+    frameIndex = static_cast<int>(frames.size());
+    frameCurrent = !frames.empty() && frames.back().first == solver.time();
+    if (hooks.restoreState) hooks.restoreState(restored["caller"]);
+  } else {
+    result.initialEnergy = solver.energies();
+    writeEnergy(result.initialEnergy);
+    writeFrame();
+  }
+  const double reference = result.initialEnergy.total();
+  const long stepsBefore = solver.stepCount();  // the step limit counts this part's steps
   auto lastProgress = start, lastCheckpoint = start;
   const std::string checkpointFile = options.name + "_checkpoint.bin";
-  bool frameCurrent = true;
-  double updates = 0;
+  const auto checkpoint = [&]() {
+    nlohmann::json state = {{"start_state_hash", startHash},
+                            {"end_time_s", options.endTime},
+                            {"initial_energy", energyJson(result.initialEnergy)},
+                            {"first_time_step_s", firstDt},
+                            {"first_step", firstStep},
+                            {"next_frame_s", nextFrame},
+                            {"next_energy_s", nextEnergy},
+                            {"energy_rows", energyRows},
+                            {"frames", frames},
+                            {"wall_time_s", wallBefore + std::chrono::duration<double>(Clock::now() - start).count()},
+                            {"particle_updates", updates},
+                            {"caller", hooks.saveState ? hooks.saveState() : nlohmann::json()}};
+    writeCheckpoint<D>((dir / checkpointFile).string(), solver, state);
+  };
   EnergyBalance e = result.initialEnergy;
 
   while (solver.time() < options.endTime) {
-    if (options.maxSteps >= 0 && solver.stepCount() - firstStep >= options.maxSteps) {
+    if (options.maxSteps >= 0 && solver.stepCount() - stepsBefore >= options.maxSteps) {
       result.status = RunStatus::stepLimit;
       result.message = "stopped after the step limit of " + std::to_string(options.maxSteps) + " steps";
       break;
@@ -186,27 +273,28 @@ RunResult run(Solver<D>& solver, const RunOptions& options, const RunHooks<D>& h
       frameCurrent = true;
     }
     const auto now = Clock::now();
-    if (writing && options.checkpointSeconds > 0 &&
-        std::chrono::duration<double>(now - lastCheckpoint).count() >= options.checkpointSeconds) {
+    if (checkpointing && std::chrono::duration<double>(now - lastCheckpoint).count() >= options.checkpointSeconds) {
       lastCheckpoint = now;
-      writeCheckpoint<D>((dir / checkpointFile).string(), solver);
+      checkpoint();
     }
     if (hooks.progress && std::chrono::duration<double>(now - lastProgress).count() >= options.progressSeconds) {
       lastProgress = now;
       hooks.progress({solver.stepCount(), solver.time(), options.endTime, solver.timeStep(),
-                      std::chrono::duration<double>(now - start).count(), solver.activeParticles(), e});
+                      wallBefore + std::chrono::duration<double>(now - start).count(), solver.activeParticles(), e});
     }
   }
-  result.wallSeconds = std::chrono::duration<double>(Clock::now() - start).count();
   result.finalEnergy = solver.energies();
   if (!frameCurrent) writeFrame();
-  if (writing && options.checkpointSeconds > 0) {
-    writeCheckpoint<D>((dir / checkpointFile).string(), solver);
-    result.files.push_back(checkpointFile);
-  }
+  if (writing) removeFramesFrom(dir, options.name, frameIndex);  // left by an interrupted run, past this one's
+  // An unstable state is not worth going on from; the last good checkpoint stays.
+  if (checkpointing && result.status != RunStatus::unstable) checkpoint();
+  if (checkpointing || resuming) result.files.push_back(checkpointFile);
+  result.wallSeconds = wallBefore + std::chrono::duration<double>(Clock::now() - start).count();
   result.steps = solver.stepCount() - firstStep;
   result.time = solver.time();
   result.particleUpdatesPerSecond = result.wallSeconds > 0 ? updates / result.wallSeconds : 0.0;
+  if (resuming) result.message += (result.message.empty() ? "" : "; ") + std::string("resumed from a checkpoint at ") +
+                                  units::format(result.resumedAt, "us", 5);
 
   const auto& o = solver.options();
   const auto& g = solver.grid();
@@ -229,6 +317,7 @@ RunResult run(Solver<D>& solver, const RunOptions& options, const RunHooks<D>& h
       {"active_particles", solver.activeParticles()},
       {"particle_updates_per_s", result.particleUpdatesPerSecond},
       {"memory_bytes", solver.memoryBytes()},
+      {"resumed_at_time_s", resuming ? nlohmann::json(result.resumedAt) : nlohmann::json()},
       {"solver",
        {{"shape_function", toString(o.shapeFunction)},
         {"update_scheme", toString(o.scheme)},
@@ -257,7 +346,8 @@ RunResult run(Solver<D>& solver, const RunOptions& options, const RunHooks<D>& h
 }
 
 namespace {
-constexpr char kCheckpointMagic[8] = {'B', 'L', 'T', 'C', 'K', 'P', 'T', '1'};
+// Version 2 adds the run state (JSON, after the particle arrays).
+constexpr char kCheckpointMagic[8] = {'B', 'L', 'T', 'C', 'K', 'P', 'T', '2'};
 
 struct CheckpointHeader {
   char magic[8];
@@ -270,7 +360,7 @@ struct CheckpointHeader {
 }  // namespace
 
 template <int D>
-void writeCheckpoint(const std::string& path, Solver<D>& solver) {
+void writeCheckpoint(const std::string& path, Solver<D>& solver, const nlohmann::json& runState) {
   const std::string tmp = path + ".tmp";
   {
     std::ofstream out(tmp, std::ios::binary);
@@ -289,20 +379,24 @@ void writeCheckpoint(const std::string& path, Solver<D>& solver) {
       out.write(reinterpret_cast<const char*>(&bytes), sizeof bytes);
       out.write(reinterpret_cast<const char*>(v.data()), static_cast<std::streamsize>(bytes));
     });
+    const std::string state = runState.dump();
+    const std::uint64_t bytes = state.size();
+    out.write(reinterpret_cast<const char*>(&bytes), sizeof bytes);
+    out.write(state.data(), static_cast<std::streamsize>(bytes));
     if (!out) throw std::runtime_error("failed writing " + tmp);
   }
   std::filesystem::rename(tmp, path);
 }
 
 template <int D>
-void readCheckpoint(const std::string& path, Solver<D>& solver) {
+nlohmann::json readCheckpoint(const std::string& path, Solver<D>& solver) {
   std::ifstream in(path, std::ios::binary);
   const InputLocation where = InputLocation::file(path);
-  if (!in) throw InputError(where, "cannot open the checkpoint", "a NAME_checkpoint.bin written by a run");
+  if (!in) throw InputError(where, "cannot open the checkpoint", "a NAME_checkpoint.bin written by a run with checkpoints (blt sim run --checkpoint-every)");
   CheckpointHeader h{};
   in.read(reinterpret_cast<char*>(&h), sizeof h);
   if (!in || !std::equal(std::begin(kCheckpointMagic), std::end(kCheckpointMagic), h.magic))
-    throw InputError(where, "not a blt checkpoint", "a NAME_checkpoint.bin written by a run");
+    throw InputError(where, "not a blt checkpoint of this version", "a NAME_checkpoint.bin written by this build");
   if (h.dimension != D)
     throw InputError(where, "checkpoint of a " + std::to_string(h.dimension) + "D run",
                      "a checkpoint of a " + std::to_string(D) + "D run");
@@ -318,14 +412,34 @@ void readCheckpoint(const std::string& path, Solver<D>& solver) {
     in.read(reinterpret_cast<char*>(v.data()), static_cast<std::streamsize>(bytes));
     if (!in) throw InputError(where, "truncated checkpoint", "a complete checkpoint");
   });
+  std::uint64_t bytes = 0;
+  in.read(reinterpret_cast<char*>(&bytes), sizeof bytes);
+  std::string state(bytes, '\0');
+  in.read(state.data(), static_cast<std::streamsize>(bytes));
+  if (!in) throw InputError(where, "truncated checkpoint (run state)", "a complete checkpoint");
   solver.setClock(h.time, h.steps, h.timeStep);
   solver.setEnergyTallies(h.contactDissipation, h.boundaryWork);
+  return nlohmann::json::parse(state);
 }
 
-template void writeCheckpoint<2>(const std::string&, Solver<2>&);
-template void writeCheckpoint<3>(const std::string&, Solver<3>&);
-template void readCheckpoint<2>(const std::string&, Solver<2>&);
-template void readCheckpoint<3>(const std::string&, Solver<3>&);
+template <int D>
+std::string particleStateHash(Solver<D>& solver) {
+  std::uint64_t h = 1469598103934665603ull;
+  solver.particles().forEachArray([&](auto& v) {
+    const auto* bytes = reinterpret_cast<const unsigned char*>(v.data());
+    for (std::size_t i = 0, n = v.size() * sizeof(v[0]); i < n; ++i) h = (h ^ bytes[i]) * 1099511628211ull;
+  });
+  char hex[17];
+  std::snprintf(hex, sizeof hex, "%016llx", static_cast<unsigned long long>(h));
+  return hex;
+}
+
+template void writeCheckpoint<2>(const std::string&, Solver<2>&, const nlohmann::json&);
+template void writeCheckpoint<3>(const std::string&, Solver<3>&, const nlohmann::json&);
+template nlohmann::json readCheckpoint<2>(const std::string&, Solver<2>&);
+template nlohmann::json readCheckpoint<3>(const std::string&, Solver<3>&);
+template std::string particleStateHash<2>(Solver<2>&);
+template std::string particleStateHash<3>(Solver<3>&);
 
 template RunResult run<2>(Solver<2>&, const RunOptions&, const RunHooks<2>&);
 template RunResult run<3>(Solver<3>&, const RunOptions&, const RunHooks<3>&);

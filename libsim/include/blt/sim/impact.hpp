@@ -19,6 +19,12 @@ struct ImpactRunOptions {
   std::string outputDirectory;  // empty: write nothing; else frames (PVD + VTU), energy CSV, summary JSON
   int threads = 0;              // as SolverOptions::threads
   std::function<void(const RunProgress&)> progress;
+  // Wall time between checkpoints OUT/NAME_checkpoint.bin (and one at the end); 0: none. Needs the directory.
+  double checkpointSeconds = 0;
+  // Go on from OUT/NAME_checkpoint.bin (RunOptions::resumeFrom): the scenario must build the model the checkpoint's
+  // run started from; run.max_time may be raised to run a finished run longer.
+  bool resume = false;
+  long maxSteps = -1;  // stop after this many steps of this run (an interrupted run, for tests); -1: no limit
 };
 
 struct ImpactResult {
@@ -27,7 +33,8 @@ struct ImpactResult {
   std::string message;         // why the run ended early (settled verdict, instability)
   ModelMode mode = ModelMode::axisymmetric;
   std::size_t particles = 0;
-  double wallSeconds = 0, endTime = 0;
+  double wallSeconds = 0, endTime = 0;  // wall time of the whole run, resumed parts included
+  double resumedAt = std::numeric_limits<double>::quiet_NaN();  // s, the checkpoint a resumed run went on from
   // Everything above and the run summary, in the units the keys name (perforated, residual_velocity_m_s,
   // layers: names front to rear, hole_size_mm: [D_h, D_v] per layer in that order, energies of the whole target
   // in J, wall_time_s, ...).

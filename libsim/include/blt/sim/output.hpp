@@ -18,6 +18,10 @@ namespace blt::sim {
 template <int D>
 void writeVtu(const std::string& path, const Particles<D>& particles);
 
+// Keeps the first `lines` lines of a text file and drops the rest: a resumed run's history files lose what the
+// interrupted run wrote after its checkpoint. Throws InputError naming the file when it is missing or shorter.
+void keepFirstLines(const std::string& path, std::size_t lines);
+
 // A .pvd collection, rewritten whole after each frame so that an interrupted run leaves a valid file.
 class PvdSeries {
  public:

@@ -5,6 +5,7 @@
 // with a message that says where and when; everything written up to then is kept.
 
 #include <functional>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -24,11 +25,18 @@ struct RunOptions {
   // no external loads, so nothing can add energy).
   double energyGrowthLimit = 0.05;
   double minTimeStepRatio = 1e-4;    // unstable when dt falls below this fraction of the first step's
-  long maxSteps = -1;                // stop after this many steps (benchmarks); -1: no limit
+  long maxSteps = -1;                // stop after this many steps of this part (benchmarks); -1: no limit
   double progressSeconds = 2.0;      // wall time between progress reports
-  // Wall time between checkpoints NAME_checkpoint.bin (and one at the end); 0 writes none. A run restored from
-  // one (readCheckpoint) continues exactly as the uninterrupted run would have.
+  // Wall time between checkpoints NAME_checkpoint.bin (and one at the end, unless the run went unstable); 0
+  // writes none. Needs an output directory.
   double checkpointSeconds = 0;
+  // A checkpoint to continue from instead of from the solver's present state, which must be the state the
+  // checkpointed run started from (the solver set up again from the same inputs; checked by a hash of every
+  // particle array). The clock, the particles, the energy reference and the output schedule are restored, the
+  // energy history and the frame series are cut back to the checkpoint and appended to, and the hooks get their
+  // own state back: the run goes on exactly as the uninterrupted one would have. `endTime` may lie beyond the
+  // first run's, to run a finished run longer.
+  std::string resumeFrom;
 };
 
 enum class RunStatus { completed, stopped, unstable, stepLimit };
@@ -50,6 +58,9 @@ struct RunResult {
   EnergyBalance initialEnergy, finalEnergy;
   std::vector<std::string> files;  // written, relative to the output directory
   nlohmann::json summary;          // what NAME_summary.json holds
+  // Resumed runs: the time of the checkpoint it went on from (NaN otherwise). Steps, wall time and the energy
+  // reference are of the whole run, from its start; particle updates per second of all its parts.
+  double resumedAt = std::numeric_limits<double>::quiet_NaN();
 };
 
 template <int D>
@@ -57,18 +68,30 @@ struct RunHooks {
   std::function<void(const RunProgress&)> progress;
   // Returns a non-empty reason to stop early (checked at every energy sample).
   std::function<std::string(const Solver<D>&)> stop;
+  // State of the caller's own that a checkpoint carries (an impact run's earlier verdicts), saved with every
+  // checkpoint and handed back on resuming.
+  std::function<nlohmann::json()> saveState;
+  std::function<void(const nlohmann::json&)> restoreState;
 };
 
 template <int D>
 RunResult run(Solver<D>& solver, const RunOptions& options, const RunHooks<D>& hooks = {});
 
-// The state a step needs (particles, clock, energy tallies) in a binary file, written to a temporary name and
-// renamed, so an interrupted write leaves the previous checkpoint whole. Grid fields are rebuilt every step.
+// The state a step needs (particles, clock, energy tallies) in a binary file, with `runState` (what a run needs
+// to go on: its output schedule, energy reference, the hooks' state) after it as JSON. Written to a temporary
+// name and renamed, so an interrupted write leaves the previous checkpoint whole. Grid fields are rebuilt
+// every step.
 template <int D>
-void writeCheckpoint(const std::string& path, Solver<D>& solver);
-// Restores a checkpoint into a solver set up from the same scenario (same dimension and particle count).
-// Throws InputError naming the file for a file that is not a checkpoint or does not match.
+void writeCheckpoint(const std::string& path, Solver<D>& solver, const nlohmann::json& runState = {});
+// Restores a checkpoint into a solver set up from the same scenario (same dimension and particle count) and
+// returns its run state (null when it was written without). Throws InputError naming the file for a file that
+// is not a checkpoint or does not match.
 template <int D>
-void readCheckpoint(const std::string& path, Solver<D>& solver);
+nlohmann::json readCheckpoint(const std::string& path, Solver<D>& solver);
+
+// FNV-1a (64 bit, hex) over every particle array: the identity of a solver's state (a resumed run checks that
+// it starts from the state its checkpoint's run started from).
+template <int D>
+std::string particleStateHash(Solver<D>& solver);
 
 }  // namespace blt::sim
