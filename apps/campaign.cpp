@@ -99,6 +99,7 @@ constexpr const char* kInProcessHelp =
 struct RunCommandOptions {
   std::string file, db, task = "1/1", bleDb;
   int jobs = 1;
+  double checkpointSeconds = 0;
   bool json = false, quiet = false, mpi = false, inProcess = false;
 };
 
@@ -115,7 +116,11 @@ void runCommand(const RunCommandOptions& o) {
   ro.jobs = o.jobs;
   ro.taskIndex = taskIndex;
   ro.taskCount = taskCount;
-  if (!o.mpi) ro.simulator = campaignSimulator(o.inProcess, 1);
+  if (o.mpi && o.checkpointSeconds > 0)
+    throw InputError(InputLocation::flag("--checkpoint-every"), "MPI ranks run in process and keep no checkpoints",
+                     "no --mpi, or no --checkpoint-every");
+  // Beside the database: a run's checkpoint belongs with the record it will become.
+  if (!o.mpi) ro.simulator = campaignSimulator(o.inProcess, 1, o.db + ".checkpoints", o.checkpointSeconds);
   const bool tty = isatty(fileno(stderr)) != 0;
   if (!o.quiet && !o.json && !o.mpi) {
     std::fprintf(stderr, "campaign %s: %zu points (%s), %s bisection, base scenario %s; %d at once; database %s\n",
@@ -146,6 +151,10 @@ void runCommand(const RunCommandOptions& o) {
   } else {
     RunDatabase db(o.db);
     r = runCampaign(c, db, ro);
+    if (o.checkpointSeconds > 0 && !r.interrupted) {
+      std::error_code ignored;
+      std::filesystem::remove(o.db + ".checkpoints", ignored);  // only when empty: every run in it has ended
+    }
   }
   if (!o.quiet && tty && !o.json) std::fprintf(stderr, "\n");
 
@@ -552,6 +561,15 @@ void registerCampaignCommand(CLI::App& app) {
                               "(mpirun -n K blt campaign run CAMPAIGN --db FILE --mpi)") +
                       (mpiAvailable() ? "" : "; this blt was built without MPI"));
     cmd->add_flag("--in-process", o->inProcess, kInProcessHelp);
+    cmd->add_option_function<std::string>(
+           "--checkpoint-every",
+           [o](const std::string& text) {
+             o->checkpointSeconds = units::parse(text, units::time, InputLocation::flag("--checkpoint-every"));
+           },
+           "Each run in flight keeps a checkpoint at this wall-time interval (e.g. 15min) in DB.checkpoints/, and "
+           "a campaign killed and started again goes on with its runs from there instead of from the start: for "
+           "runs of hours under a job time limit. About 0.3 kB a particle per run in flight")
+        ->type_name("DURATION");
     cmd->add_flag("--quiet", o->quiet, "No progress lines");
     addJsonFlag(*cmd, o->json);
     cmd->callback([o] { runCommand(*o); });

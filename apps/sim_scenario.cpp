@@ -26,6 +26,7 @@ struct ScenarioOptions {
   int ensemble = 1;  // runs at grid offsets 0, 1/N, ..., (N-1)/N
   double checkpointSeconds = 0;  // wall time between checkpoints (blt sim run only)
   bool resume = false;
+  bool noFrames = false;
   bool json = false, quiet = false;
 };
 
@@ -38,6 +39,8 @@ void addScenarioOptions(CLI::App& cmd, ScenarioOptions& o) {
   cmd.add_option("--out", o.out, "Output directory: ParaView series (NAME.pvd), energy history CSV, summary JSON");
   cmd.add_option("--threads", o.threads, "OpenMP threads (default: all cores; several runs at once: 1 each)");
   cmd.add_flag("--quiet", o.quiet, "No progress lines");
+  cmd.add_flag("--no-frames", o.noFrames,
+               "With --out: no particle frames (VTU), only the energy and verdict histories and the summary");
   addJsonFlag(cmd, o.json);
 }
 
@@ -54,6 +57,7 @@ ImpactRunOptions runOptions(const ScenarioOptions& o) {
   ro.threads = o.threads;
   ro.checkpointSeconds = o.checkpointSeconds;
   ro.resume = o.resume;
+  ro.frames = !o.noFrames;
   if (!o.quiet)
     ro.progress = [](const RunProgress& p) {
       std::fprintf(stderr, "  step %ld  t = %.2f / %.2f us  dt = %.3g ns  %zu particles  wall %.1f s\n", p.step,
@@ -139,7 +143,9 @@ void runScenario(const ScenarioOptions& o) {
   if (!std::isnan(r.resumedAt)) std::printf("resumed from a checkpoint at %.4g us\n", r.resumedAt * 1e6);
   if (r.status == RunStatus::unstable) std::printf("run went unstable: %s\n", r.message.c_str());
   printImpact(r.summary);
-  if (!o.out.empty()) std::printf("files in %s/ (open %s.pvd in ParaView)\n", o.out.c_str(), sc.name.c_str());
+  if (!o.out.empty())
+    std::printf("files in %s/%s\n", o.out.c_str(),
+                o.noFrames ? "" : (" (open " + sc.name + ".pvd in ParaView)").c_str());
 }
 
 struct BisectCliOptions {

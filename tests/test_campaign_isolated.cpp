@@ -4,9 +4,11 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <vector>
 
 #include "approx.hpp"
 #include "scratch_dir.hpp"
@@ -54,6 +56,51 @@ TEST_CASE("campaign: a run in its own process gives the outcome of the same run 
   CHECK(isolated.residualVelocity == relApprox(inProcess.residualVelocity, 1e-12));
   CHECK(isolated.measurements["hole_size_mm"] == inProcess.measurements["hole_size_mm"]);
   CHECK(isolated.measurements["steps"] == inProcess.measurements["steps"]);
+}
+
+TEST_CASE("campaign: a run killed with its campaign goes on from its checkpoint when the campaign starts again") {
+  // Reference: the same run made straight through in process. The killed run is stood in for by the first half
+  // of it (to 4 us of 8), made by the command line into the run's checkpoint directory as the killed child
+  // would have left it; the shot perforates only after 4 us, so nothing stops either run before its end.
+  const fs::path dir = scratch("checkpoint");
+  const std::vector<std::string> settings = {"resolution.particle_spacing=0.2mm", "resolution.cell_size=0.4mm",
+                                             "target.lateral_size=12mm", "run.max_time=8us",
+                                             "projectile.diameter=1.6mm", "projectile.velocity=7km/s"};
+  const sim::ImpactScenario sc = sim::loadScenario(kScenario, settings);
+  IsolatedRunOptions o;
+  o.executable = kBlt;
+  o.checkpointDirectory = (dir / "checkpoints").string();
+  o.checkpointSeconds = 3600;
+  const fs::path keep = checkpointDirectoryFor(o, sc);
+  CHECK(keep.parent_path() == dir / "checkpoints");
+  std::string firstHalf = "'" + kBlt + "' sim run '" + kScenario + "'";
+  for (const std::string& s : settings) firstHalf += " --set " + s;
+  firstHalf += " --set run.max_time=4us --threads 1 --quiet --no-frames --checkpoint-every 1h --out '" + keep.string() +
+               "' > /dev/null 2>&1";
+  REQUIRE(std::system(firstHalf.c_str()) == 0);
+  REQUIRE(fs::exists(keep / (sc.name + "_checkpoint.bin")));
+  CHECK_FALSE(fs::exists(keep / (sc.name + ".pvd")));
+
+  const SimulationOutcome resumed = isolatedSimulator(o)(sc);
+  const SimulationOutcome straight = simulateImpact(sc);
+  INFO(resumed.reason);
+  REQUIRE_FALSE(resumed.failed);
+  CHECK(resumed.measurements["resumed_at_time_s"].get<double>() == doctest::Approx(4e-6).epsilon(0.01));
+  CHECK(resumed.perforated == straight.perforated);
+  CHECK(resumed.perforated);
+  for (const char* key : {"steps", "time_s", "hole_size_mm", "residual_velocity_m_s", "mass_behind_rear_wall_fraction"})
+    CHECK_MESSAGE(resumed.measurements[key] == straight.measurements[key], key);
+  CHECK_FALSE(fs::exists(keep));  // the run is recorded: its checkpoint is of no more use
+
+  // With no checkpoint there the run starts from the beginning, and leaves nothing either.
+  const SimulationOutcome fresh = isolatedSimulator(o)(sc);
+  REQUIRE_FALSE(fresh.failed);
+  CHECK(fresh.measurements["resumed_at_time_s"].is_null());
+  CHECK(fresh.measurements["steps"] == straight.measurements["steps"]);
+  CHECK_FALSE(fs::exists(keep));
+  // In process there is nowhere to keep one.
+  CHECK_THROWS_WITH_AS(campaignSimulator(true, 1, o.checkpointDirectory, 60), doctest::Contains("--checkpoint-every"),
+                       InputError);
 }
 
 TEST_CASE("campaign: a run that crashes in its own process is a failed run naming the signal") {

@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
@@ -13,6 +14,7 @@
 #include <vector>
 
 #include "blt/core/error.hpp"
+#include "blt/sim/run_cache.hpp"
 
 namespace blt::campaign {
 
@@ -70,6 +72,17 @@ SimulationOutcome runIsolated(const IsolatedRunOptions& o, const sim::ImpactScen
   }
   for (const char* a : {"--json", "--quiet", "--threads"}) args.emplace_back(a);
   args.push_back(std::to_string(o.threads));
+  const bool checkpointing = !o.checkpointDirectory.empty() && o.checkpointSeconds > 0;
+  const std::string keep = checkpointing ? checkpointDirectoryFor(o, scenario) : std::string();
+  if (checkpointing) {
+    char every[32];
+    std::snprintf(every, sizeof every, "%.6gs", o.checkpointSeconds);
+    for (const std::string& a : {std::string("--out"), keep, std::string("--no-frames"), std::string("--checkpoint-every"),
+                                std::string(every)})
+      args.push_back(a);
+    if (std::filesystem::exists(std::filesystem::path(keep) / (scenario.name + "_checkpoint.bin")))
+      args.emplace_back("--resume");
+  }
   std::vector<char*> argv;
   for (std::string& a : args) argv.push_back(a.data());
   argv.push_back(nullptr);
@@ -92,6 +105,12 @@ SimulationOutcome runIsolated(const IsolatedRunOptions& o, const sim::ImpactScen
   while (waitpid(pid, &status, 0) < 0)
     if (errno != EINTR) throw std::runtime_error(std::string("lost the run's process: ") + std::strerror(errno));
 
+  // The run has ended and its outcome is recorded, whatever it was; the checkpoint is only of use to a run whose
+  // campaign died with it (nothing recorded), which finds it when the campaign is started again.
+  if (checkpointing) {
+    std::error_code ignored;
+    std::filesystem::remove_all(keep, ignored);
+  }
   SimulationOutcome r;
   const std::string errors = tail(err.text(), o.errorTailBytes);
   if (WIFSIGNALED(status)) {
@@ -128,6 +147,12 @@ SimulationOutcome runIsolated(const IsolatedRunOptions& o, const sim::ImpactScen
 
 }  // namespace
 
+std::string checkpointDirectoryFor(const IsolatedRunOptions& options, const sim::ImpactScenario& scenario) {
+  return (std::filesystem::path(options.checkpointDirectory) /
+          sim::scenarioHash(scenario.path + "\n" + sim::buildVersion(), scenario.settings))
+      .string();
+}
+
 Simulator isolatedSimulator(const IsolatedRunOptions& options) {
   if (options.executable.empty() || access(options.executable.c_str(), X_OK) != 0)
     throw InputError(InputLocation::file(options.executable.empty() ? "(none)" : options.executable),
@@ -136,9 +161,15 @@ Simulator isolatedSimulator(const IsolatedRunOptions& options) {
   return [options](const sim::ImpactScenario& scenario) { return runIsolated(options, scenario); };
 }
 
-Simulator campaignSimulator(bool inProcess, int threads) {
+Simulator campaignSimulator(bool inProcess, int threads, const std::string& checkpointDirectory,
+                            double checkpointSeconds) {
+  if (inProcess && checkpointSeconds > 0)
+    throw InputError(InputLocation::flag("--checkpoint-every"), "runs in process keep no checkpoints",
+                     "runs in their own processes (no --in-process, no --mpi)");
   if (inProcess) return impactSimulator(threads);
   IsolatedRunOptions io;
+  io.checkpointDirectory = checkpointDirectory;
+  io.checkpointSeconds = checkpointSeconds;
   // The running image itself, not its path: a build that replaces the file mid-campaign does not mix programs.
   io.executable = "/proc/self/exe";
   io.threads = threads;

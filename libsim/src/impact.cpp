@@ -85,7 +85,7 @@ ImpactResult runModel(const ImpactScenario& sc, const ImpactRunOptions& options)
   ro.endTime = sc.run.maxTime;
   ro.outputDirectory = options.outputDirectory;
   ro.name = sc.name;
-  ro.frames = sc.run.frames;
+  ro.frames = options.frames ? sc.run.frames : -1;
   ro.checkpointSeconds = options.checkpointSeconds;
   ro.maxSteps = options.maxSteps;
   const std::filesystem::path historyFile = std::filesystem::path(options.outputDirectory) / "verdict_history.csv";

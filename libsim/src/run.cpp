@@ -99,6 +99,7 @@ RunResult run(Solver<D>& solver, const RunOptions& options, const RunHooks<D>& h
   const bool writing = !options.outputDirectory.empty();
   const bool resuming = !options.resumeFrom.empty();
   const bool checkpointing = writing && options.checkpointSeconds > 0;
+  const bool framing = writing && options.frames >= 0;
   const fs::path dir(options.outputDirectory);
   if (writing) fs::create_directories(dir);
   if (resuming && !writing)
@@ -126,7 +127,7 @@ RunResult run(Solver<D>& solver, const RunOptions& options, const RunHooks<D>& h
   long energyRows = 0;
   std::vector<std::pair<double, std::string>> frames;
   auto writeFrame = [&]() {
-    if (!writing) return;
+    if (!framing) return;
     char name[64];
     std::snprintf(name, sizeof name, "_%04d.vtu", frameIndex++);
     const std::string file = options.name + name;
@@ -144,9 +145,11 @@ RunResult run(Solver<D>& solver, const RunOptions& options, const RunHooks<D>& h
     ++energyRows;
   };
   const std::string csv = options.name + "_energy.csv";
-  if (writing) {
+  if (framing) {
     pvd = std::make_unique<PvdSeries>((dir / (options.name + ".pvd")).string());
     result.files.push_back(options.name + ".pvd");
+  }
+  if (writing) {
     if (resuming) {
       // Rows written after the checkpoint (by the interrupted run) are dropped: the resumed run writes them again.
       energyRows = restored["energy_rows"].get<long>();
@@ -181,7 +184,7 @@ RunResult run(Solver<D>& solver, const RunOptions& options, const RunHooks<D>& h
     wallBefore = restored["wall_time_s"].get<double>();
     updates = restored["particle_updates"].get<double>();
     for (const auto& f : restored["frames"]) {
-      pvd->add(f[0].get<double>(), f[1].get<std::string>());
+      if (pvd) pvd->add(f[0].get<double>(), f[1].get<std::string>());
       frames.emplace_back(f[0].get<double>(), f[1].get<std::string>());
       result.files.push_back(f[1].get<std::string>());
     }
@@ -285,7 +288,7 @@ RunResult run(Solver<D>& solver, const RunOptions& options, const RunHooks<D>& h
   }
   result.finalEnergy = solver.energies();
   if (!frameCurrent) writeFrame();
-  if (writing) removeFramesFrom(dir, options.name, frameIndex);  // left by an interrupted run, past this one's
+  if (framing) removeFramesFrom(dir, options.name, frameIndex);  // left by an interrupted run, past this one's
   // An unstable state is not worth going on from; the last good checkpoint stays.
   if (checkpointing && result.status != RunStatus::unstable) checkpoint();
   if (checkpointing || resuming) result.files.push_back(checkpointFile);

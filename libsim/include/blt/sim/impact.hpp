@@ -24,6 +24,7 @@ struct ImpactRunOptions {
   // Go on from OUT/NAME_checkpoint.bin (RunOptions::resumeFrom): the scenario must build the model the checkpoint's
   // run started from; run.max_time may be raised to run a finished run longer.
   bool resume = false;
+  bool frames = true;  // false: no particle frames (VTU, PVD), only the histories, the summary and checkpoints
   long maxSteps = -1;  // stop after this many steps of this run (an interrupted run, for tests); -1: no limit
 };
 

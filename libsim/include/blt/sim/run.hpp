@@ -19,7 +19,7 @@ struct RunOptions {
   double endTime = 0;                // s
   std::string outputDirectory;       // empty: write nothing
   std::string name = "run";          // file stem: NAME.pvd, NAME_0000.vtu, NAME_energy.csv, NAME_summary.json
-  int frames = 10;                   // particle frames written over [0, endTime] (plus the last state)
+  int frames = 10;                   // particle frames written over [0, endTime] (plus the last state); -1: none
   int energySamples = 200;           // rows of the energy history over [0, endTime]
   // Unstable when kinetic + internal energy exceeds (1 + energyGrowthLimit) x the initial total (the model has
   // no external loads, so nothing can add energy).
