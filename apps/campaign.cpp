@@ -561,15 +561,10 @@ void registerCampaignCommand(CLI::App& app) {
                               "(mpirun -n K blt campaign run CAMPAIGN --db FILE --mpi)") +
                       (mpiAvailable() ? "" : "; this blt was built without MPI"));
     cmd->add_flag("--in-process", o->inProcess, kInProcessHelp);
-    cmd->add_option_function<std::string>(
-           "--checkpoint-every",
-           [o](const std::string& text) {
-             o->checkpointSeconds = units::parse(text, units::time, InputLocation::flag("--checkpoint-every"));
-           },
-           "Each run in flight keeps a checkpoint at this wall-time interval (e.g. 15min) in DB.checkpoints/, and "
-           "a campaign killed and started again goes on with its runs from there instead of from the start: for "
-           "runs of hours under a job time limit. About 0.3 kB a particle per run in flight")
-        ->type_name("DURATION");
+    addWallTime(*cmd, "--checkpoint-every", o->checkpointSeconds,
+                "Each run in flight keeps a checkpoint at this wall-time interval in DB.checkpoints/, and a campaign "
+                "killed and started again goes on with its runs from there instead of from the start: for runs of "
+                "hours under a job time limit. About 0.3 kB a particle per run in flight");
     cmd->add_flag("--quiet", o->quiet, "No progress lines");
     addJsonFlag(*cmd, o->json);
     cmd->callback([o] { runCommand(*o); });

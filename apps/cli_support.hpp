@@ -23,6 +23,16 @@ inline CLI::Option* addQuantity(CLI::App& app, const std::string& name, double& 
   return opt;
 }
 
+// A wall-clock interval ("10min", "1h", "30s"; SI seconds in `target`), for how often a long job saves its state.
+inline CLI::Option* addWallTime(CLI::App& app, const std::string& name, double& target, const std::string& description) {
+  const std::string flag = name.substr(0, name.find(','));
+  return app
+      .add_option_function<std::string>(
+          name, [&target, flag](const std::string& text) { target = units::parse(text, units::time, InputLocation::flag(flag)); },
+          description + " (e.g. 10min)")
+      ->type_name("DURATION");
+}
+
 // Adds --json; subcommands print one JSON document to stdout when it is set.
 inline CLI::Option* addJsonFlag(CLI::App& app, bool& json) {
   return app.add_flag("--json", json, "Print one JSON document (SI values, keys carry their unit) instead of text");

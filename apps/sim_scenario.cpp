@@ -290,15 +290,10 @@ void registerSimScenarioCommands(CLI::App& sim) {
                   "Run the shot N times, the grid shifted along the target normal by 0, 1/N, ... of a cell "
                   "(resolution.grid_offset), and count the perforations: how sure the verdict is near the limit "
                   "(default 1)");
-  run->add_option_function<std::string>(
-         "--checkpoint-every",
-         [so](const std::string& text) {
-           so->checkpointSeconds = units::parse(text, units::time, InputLocation::flag("--checkpoint-every"));
-         },
-         "Wall time between checkpoints OUT/NAME_checkpoint.bin, and one at the end, so that a long run can be "
-         "resumed after a kill or run longer (e.g. 10min); each holds every particle, about 0.3 kB a particle in 3D "
-         "(0.4 GB for the seed 000 45 deg model)")
-      ->type_name("DURATION");
+  addWallTime(*run, "--checkpoint-every", so->checkpointSeconds,
+              "Wall time between checkpoints OUT/NAME_checkpoint.bin, and one at the end, so that a long run can be "
+              "resumed after a kill or run longer; each holds every particle, about 0.3 kB a particle in 3D (0.4 GB "
+              "for the seed 000 45 deg model)");
   run->add_flag("--resume", so->resume,
                 "Go on from OUT/NAME_checkpoint.bin with the same scenario and --set values (only run.max_time may "
                 "differ: raise it to run a finished run longer); the energy history, verdict history and frames are "
