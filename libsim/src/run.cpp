@@ -125,7 +125,6 @@ RunResult run(Solver<D>& solver, const RunOptions& options, const RunHooks<D>& h
   std::unique_ptr<PvdSeries> pvd;
   int frameIndex = 0;
   long energyRows = 0;
-  std::vector<std::pair<double, std::string>> frames;
   auto writeFrame = [&]() {
     if (!framing) return;
     char name[64];
@@ -133,7 +132,6 @@ RunResult run(Solver<D>& solver, const RunOptions& options, const RunHooks<D>& h
     const std::string file = options.name + name;
     writeVtu<D>((dir / file).string(), solver.particles());
     pvd->add(solver.time(), file);
-    frames.emplace_back(solver.time(), file);
     result.files.push_back(file);
   };
   auto writeEnergy = [&](const EnergyBalance& e) {
@@ -183,13 +181,13 @@ RunResult run(Solver<D>& solver, const RunOptions& options, const RunHooks<D>& h
     nextEnergy = restored["next_energy_s"].get<double>();
     wallBefore = restored["wall_time_s"].get<double>();
     updates = restored["particle_updates"].get<double>();
-    for (const auto& f : restored["frames"]) {
-      if (pvd) pvd->add(f[0].get<double>(), f[1].get<std::string>());
-      frames.emplace_back(f[0].get<double>(), f[1].get<std::string>());
-      result.files.push_back(f[1].get<std::string>());
-    }
-    frameIndex = static_cast<int>(frames.size());
-    frameCurrent = !frames.empty() && frames.back().first == solver.time();
+    if (pvd)
+      for (const auto& f : restored["frames"]) {
+        pvd->add(f[0].get<double>(), f[1].get<std::string>());
+        result.files.push_back(f[1].get<std::string>());
+      }
+    frameIndex = pvd ? static_cast<int>(pvd->frames().size()) : 0;
+    frameCurrent = pvd && !pvd->frames().empty() && pvd->frames().back().first == solver.time();
     if (hooks.restoreState) hooks.restoreState(restored["caller"]);
   } else {
     result.initialEnergy = solver.energies();
@@ -202,14 +200,13 @@ RunResult run(Solver<D>& solver, const RunOptions& options, const RunHooks<D>& h
   const std::string checkpointFile = options.name + "_checkpoint.bin";
   const auto checkpoint = [&]() {
     nlohmann::json state = {{"start_state_hash", startHash},
-                            {"end_time_s", options.endTime},
                             {"initial_energy", energyJson(result.initialEnergy)},
                             {"first_time_step_s", firstDt},
                             {"first_step", firstStep},
                             {"next_frame_s", nextFrame},
                             {"next_energy_s", nextEnergy},
                             {"energy_rows", energyRows},
-                            {"frames", frames},
+                            {"frames", pvd ? pvd->frames() : std::vector<std::pair<double, std::string>>()},
                             {"wall_time_s", wallBefore + std::chrono::duration<double>(Clock::now() - start).count()},
                             {"particle_updates", updates},
                             {"caller", hooks.saveState ? hooks.saveState() : nlohmann::json()}};

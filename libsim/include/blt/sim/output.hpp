@@ -28,6 +28,7 @@ class PvdSeries {
   explicit PvdSeries(std::string path) : path_(std::move(path)) {}
   void add(double time, const std::string& fileRelativeToPvd);
   const std::string& path() const { return path_; }
+  const std::vector<std::pair<double, std::string>>& frames() const { return frames_; }  // (time s, file), in order
 
  private:
   std::string path_;
