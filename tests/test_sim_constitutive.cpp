@@ -106,6 +106,13 @@ TEST_CASE("MieGrueneisen: p = rho0 Us up on the Hugoniot, bulk modulus rho0 c0^2
   CHECK(eos.bulkModulus(0.0, 0.0) == relApprox(rho0 * c0 * c0, 1e-6));
   const MieGrueneisen al(2770, 5328, 1.11, 2.0);  // 2A12, seed 000 Table 3
   CHECK(al.bulkModulus(0.0, 0.0) == relApprox(2770 * 5328.0 * 5328.0, 1e-6));
+  // Mie-Grueneisen's own bulk modulus is the base class's central difference to the last bit (it only saves the
+  // virtual calls), in tension, across the kink at mu = 0, in compression and past the Hugoniot's asymptote.
+  for (double mu : {-0.05, -1e-7, 0.0, 5e-7, 0.01, 0.3, 1.5})
+    for (double E : {0.0, 1e8, 5e9}) {
+      INFO("mu = " << mu << ", E = " << E);
+      CHECK(eos.bulkModulus(mu, E) == eos.EquationOfState::bulkModulus(mu, E));
+    }
 }
 
 TEST_CASE("JohnsonCookStrength: 2A12 card against the formula; melt and low rate") {
@@ -139,6 +146,8 @@ TEST_CASE("JohnsonCookStrength: 2A12 card against the formula; melt and low rate
   const double qHand = (229e6 + 439e6 * std::pow(0.05, 0.503)) * std::pow(1 + 10.0 / 1.1e-3, 0.1) *
                        (1 - std::pow((500.0 - 300.0) / (1795.0 - 300.0), 0.55));
   CHECK(q.johnsonCook->yieldStress(0.05, 10.0, 500.0) == relApprox(qHand, 1e-12));
+  // The elastic trial's zero rate and room temperature: (1 + 0)^C = 1 and T* = 0.
+  CHECK(q.johnsonCook->yieldStress(0.05, 0.0, 300.0) == relApprox(229e6 + 439e6 * std::pow(0.05, 0.503), 1e-12));
   // The same constants read with the classic rate term (card q235_jc): 1 + C ln(rate/rate0).
   const SolidMaterial qc = makeSolidMaterial(MaterialLibrary::load().get("q235_jc"));
   REQUIRE(qc.johnsonCook);

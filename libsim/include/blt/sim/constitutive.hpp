@@ -56,6 +56,7 @@ class MieGrueneisen final : public EquationOfState {
       : rho0_(rho0), c0_(c0), s_(s), gamma0_(gamma0), a_(a) {}
   double coldPressure(double mu) const override;
   double energyCoefficient(double mu) const override { return gamma0_ + a_ * mu; }
+  double bulkModulus(double mu, double E) const override;
   double hugoniotPressure(double mu) const;
 
  private:
