@@ -130,6 +130,11 @@ bool MaxPrincipalStressFailure::check(const FailureInput& in, double&) const {
 
 bool MaxPrincipalStrainFailure::check(const FailureInput& in, double&) const {
   const Mat3 b = in.deformationGradient * in.deformationGradient.transpose();
+  // The largest eigenvalue of b is the squared stretch, at most mean + sqrt(2/3) |deviator| (as for the stress
+  // above): most points are far from the limit and skip the eigenvalues.
+  const double mean = b.trace() / 3.0;
+  const double margin = (1.0 + limit_) * (1.0 + limit_) - mean;
+  if (margin >= 0 && 2.0 / 3.0 * (b - mean * kIdentity).squaredNorm() <= margin * margin) return false;
   const double stretch = std::sqrt(std::max(principalValues(b)(0), 0.0));
   return stretch - 1.0 > limit_;
 }
