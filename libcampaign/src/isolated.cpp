@@ -24,7 +24,7 @@ namespace {
 // A file for one of the child's output streams, without a name: the child writes through the descriptor and the
 // parent reads through it, so a campaign killed mid-run (SIGKILL, no destructors) leaves nothing in the temporary
 // directory. O_TMPFILE makes it nameless from the start; a named file removed at once (where the file system has
-// no O_TMPFILE) still left one behind when the kill came between the two calls, as it did in 1 of 9 kill tests
+// no O_TMPFILE) still left one behind when the kill came between the two calls, as it did once in 20 kill tests
 // under load: a campaign starts its next run just after recording one, which is when a watcher kills it.
 class CaptureFile {
  public:
