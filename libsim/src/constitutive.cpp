@@ -11,6 +11,15 @@ namespace {
 const Mat3 kIdentity = Mat3::Identity();
 
 double doubleContraction(const Mat3& a, const Mat3& b) { return a.cwiseProduct(b).sum(); }
+
+// Whether the largest eigenvalue of a symmetric matrix is surely at most `bound`: it is at most
+// mean + sqrt(2/3) |deviator|, compared here squared. Most points of a run are far from their failure limit
+// and skip the eigenvalues on this test.
+bool largestEigenvalueSurelyAtMost(const Mat3& a, double bound) {
+  const double mean = a.trace() / 3.0;
+  const double margin = bound - mean;
+  return margin >= 0 && 2.0 / 3.0 * (a - mean * kIdentity).squaredNorm() <= margin * margin;
+}
 }  // namespace
 
 Eigen::Vector3d principalValues(const Mat3& a) {
@@ -119,22 +128,14 @@ double ZerilliArmstrongFccStrength::hardening(double ep, double rate, double tem
 // ---- failure ----
 
 bool MaxPrincipalStressFailure::check(const FailureInput& in, double&) const {
-  // sigma_1 <= mean + sqrt(2/3) |deviator|: most points are far from the limit and skip the eigenvalues.
-  // Compared squared, as the bound needs no square root to be decided (this runs for every point every step).
-  const double mean = in.stress.trace() / 3.0;
-  const Mat3 dev = in.stress - mean * kIdentity;
-  const double margin = limit_ - mean;
-  if (margin >= 0 && 2.0 / 3.0 * dev.squaredNorm() <= margin * margin) return false;
+  if (largestEigenvalueSurelyAtMost(in.stress, limit_)) return false;
   return principalValues(in.stress)(0) > limit_;
 }
 
 bool MaxPrincipalStrainFailure::check(const FailureInput& in, double&) const {
   const Mat3 b = in.deformationGradient * in.deformationGradient.transpose();
-  // The largest eigenvalue of b is the squared stretch, at most mean + sqrt(2/3) |deviator| (as for the stress
-  // above): most points are far from the limit and skip the eigenvalues.
-  const double mean = b.trace() / 3.0;
-  const double margin = (1.0 + limit_) * (1.0 + limit_) - mean;
-  if (margin >= 0 && 2.0 / 3.0 * (b - mean * kIdentity).squaredNorm() <= margin * margin) return false;
+  // The largest eigenvalue of b is the squared largest stretch.
+  if (largestEigenvalueSurelyAtMost(b, (1.0 + limit_) * (1.0 + limit_))) return false;
   const double stretch = std::sqrt(std::max(principalValues(b)(0), 0.0));
   return stretch - 1.0 > limit_;
 }
