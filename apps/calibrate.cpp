@@ -20,6 +20,7 @@
 #include "blt/calibrate/solver_model.hpp"
 #include "blt/calibrate/synthetic.hpp"
 #include "blt/campaign/isolated.hpp"
+#include "blt/campaign/runner.hpp"
 #include "cli_support.hpp"
 #include "commands.hpp"
 
@@ -69,7 +70,7 @@ void registerCalibrateCommand(CLI::App& app) {
       "      --scenario data/scenarios/fabric_al_original.toml --effects interlayer_gaps,thickness:outer \\\n"
       "      --set resolution.particle_spacing=0.2mm --set resolution.cell_size=0.4mm --report seed000");
   struct State {
-    std::string measured, scenario, model, report, db, reuseRuns;
+    std::string measured, scenario, model, report, db, reuseRuns, task;
     std::vector<std::string> effects, settings;
     std::string aText = "1", pText = "2", folds = "0", grid = "0", refine = "-1", minImprovement = "0.1", minT = "2",
                 pairedOver = "observations";
@@ -114,6 +115,13 @@ void registerCalibrateCommand(CLI::App& app) {
                   "then the share that perforates; N times the runs; default 1; not with --outcome-margin)")
       ->type_name("N");
   cmd->add_option("--threads", s->threads, "solver model: threads per run (default 1)")->type_name("N");
+  cmd->add_option("--task", s->task,
+                  "solver model: make only task I's share of the calibration's runs (prediction k belongs to task "
+                  "k mod N + 1) and record them in --db, for job arrays; no report. When every task has ended, merge "
+                  "their databases (blt campaign merge) and run the calibration without --task on the merged file: "
+                  "it runs nothing again. Keep the parts in one folder, so that derived material cards (cards/ "
+                  "beside the database) have the same paths in every run")
+      ->type_name("I/N");
   cmd->add_option("--folds", s->folds, "cross-validation folds (default: leave-one-out up to 20 cases, else 10)")
       ->type_name("K");
   cmd->add_option("--grid", s->grid, "grid points per effect (default: 41 analytical, 7 solver)")->type_name("N");
@@ -155,6 +163,10 @@ void registerCalibrateCommand(CLI::App& app) {
                        "--scenario FILE (solver), a scenario column in " + s->measured +
                            ", or --model recht-ipson|lambert-jonas with --v-bl");
     std::unique_ptr<cal::Model> model;
+    cal::SolverModel* solverModel = nullptr;
+    if (!s->task.empty() && !s->model.empty())
+      throw InputError(InputLocation::flag("--task"), "an analytical calibration has no runs to share out",
+                       "--task with --scenario (the solver model)");
     if (!s->model.empty()) {
       const auto kind = analytic::parseModelName(s->model);
       if (!kind)
@@ -186,12 +198,34 @@ void registerCalibrateCommand(CLI::App& app) {
       if (solver->runsImported() > 0 && !s->json)
         std::cerr << "  " << solver->runsImported() << " runs copied from " << so.importCache << " into " << so.database
                   << "\n";
+      solverModel = solver.get();
       model = std::move(solver);
       if (options.effects.empty())
         for (const auto& e : model->effects())
           if (!cal::turnsRunsThreeD(e.name)) options.effects.push_back(e.name);
     }
 
+    if (!s->task.empty()) {
+      const auto [taskIndex, taskCount] = campaign::parseTask(s->task, InputLocation::flag("--task"));
+      const auto plan = cal::plannedPredictions(*model, data, options);
+      const std::size_t made = cal::predictShare(*model, data, plan, taskIndex, taskCount);
+      const std::string db = s->db.empty() ? (std::filesystem::path(s->report) / "runs.sqlite").string() : s->db;
+      if (s->json) {
+        printJson({{"task", s->task},
+                   {"predictions", made},
+                   {"planned_predictions", plan.size()},
+                   {"runs_made", solverModel->runsMade()},
+                   {"runs_reused", solverModel->runsReused()},
+                   {"database", db}});
+        return;
+      }
+      std::cout << "calibration task " << s->task << ": " << made << " of the " << plan.size()
+                << " predictions, " << solverModel->runsMade() << " runs made ("
+                << solverModel->runsReused() << " taken from campaigns), recorded in " << db
+                << "\nwhen every task has ended: blt campaign merge PARTS --db ALL, then this command without "
+                   "--task and with --db ALL (no run is made again)\n";
+      return;
+    }
     const cal::CalibrationResult result = cal::calibrate(*model, data, options);
     const auto files = cal::writeReport(s->report, result, data);
     if (s->json) {

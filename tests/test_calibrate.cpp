@@ -8,6 +8,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <filesystem>
@@ -138,6 +139,71 @@ TEST_CASE("calibrate: a strength effect (higher ballistic limit) is named and it
   const double se = sigma / std::sqrt(sumJ2);
   CHECK(std::abs(r.winningFit()->parameter - scale) <= 4 * se);
   CHECK(r.winningFit()->heldoutError < r.before.combined);
+}
+
+namespace {
+
+// The analytical model, recording every prediction asked of it as "effect value case" (the base as "base").
+class RecordingModel : public Model {
+ public:
+  std::string describe() const override { return inner_.describe(); }
+  const std::vector<Effect>& effects() const override { return inner_.effects(); }
+  void check(const MeasuredData& data) const override { inner_.check(data); }
+  std::vector<Prediction> predict(const MeasuredData& data, const std::vector<std::size_t>& cases,
+                                  const EffectSetting& setting) override {
+    for (std::size_t c : cases)
+      asked.push_back((setting.effect ? setting.effect->name + " " + std::to_string(setting.value) : "base") + " " +
+                      std::to_string(c));
+    return inner_.predict(data, cases, setting);
+  }
+  int suggestedGridPoints() const override { return 5; }
+  int suggestedRefineSteps() const override { return 0; }
+  std::vector<std::string> asked;
+
+ private:
+  AnalyticModel inner_{analytic::ResidualVelocityModel::rechtIpson, baseConstants};
+};
+
+std::vector<std::string> sorted(std::vector<std::string> v) {
+  std::sort(v.begin(), v.end());
+  return v;
+}
+
+}  // namespace
+
+TEST_CASE("calibrate: the planned predictions are those a calibration asks for, and tasks share them out whole") {
+  const MeasuredData data = parse(residualCsv(1.0 / 1.5, baseLimit, 4.0, 11));
+  RecordingModel whole;
+  blt::calibrate::calibrate(whole, data);
+  // What a calibration asks: each case at the base, then at each grid value of each effect (the base again at the
+  // effect's neutral value: a solver model recalls those runs).
+  std::vector<std::string> asked = sorted(whole.asked);
+  asked.erase(std::unique(asked.begin(), asked.end()), asked.end());
+  const auto plan = plannedPredictions(whole, data);
+  std::vector<std::string> planned;
+  for (const PlannedPrediction& p : plan)
+    planned.push_back((p.setting.effect ? p.setting.effect->name + " " + std::to_string(p.setting.value) : "base") + " " +
+                      std::to_string(p.caseIndex));
+  CHECK(planned.size() == asked.size());  // none planned twice
+  CHECK(sorted(planned) == asked);
+  // Three tasks: each asks its own share, together the plan, none twice.
+  std::vector<std::string> shared;
+  std::size_t made = 0;
+  for (int task = 1; task <= 3; ++task) {
+    RecordingModel part;
+    const std::size_t n = predictShare(part, data, plan, task, 3);
+    CHECK(n == part.asked.size());
+    CHECK(n == (plan.size() + 3 - task) / 3);
+    made += n;
+    shared.insert(shared.end(), part.asked.begin(), part.asked.end());
+  }
+  CHECK(made == plan.size());
+  CHECK(sorted(shared) == asked);
+  // A fit that refines its parameter picks values from the errors it finds: it cannot be planned.
+  CalibrationOptions refined;
+  refined.refineSteps = 5;
+  CHECK(messageOf([&] { plannedPredictions(whole, data, refined); }).find("--refine") != std::string::npos);
+  CHECK(messageOf([&] { predictShare(whole, data, plan, 4, 3); }).find("--task") != std::string::npos);
 }
 
 TEST_CASE("calibrate: synthesize makes data from a model with an effect; noise-free, the calibrator recovers it") {
@@ -1003,6 +1069,51 @@ TEST_CASE("calibrate: the command line runs each simulation in a blt process of 
   REQUIRE_MESSAGE(second.status == 0, second.output);
   CHECK(second.output.find("run: ") == std::string::npos);
   CHECK(campaign::RunDatabase(dir + "/report/runs.sqlite").calibrationRuns().size() == runs);
+  fs::remove_all(dir);
+}
+
+TEST_CASE("calibrate: the command line splits a calibration's runs over tasks; merged, the calibration makes none") {
+  const std::string dir = tempDir("cli_tasks");
+  fs::create_directories(dir);
+  const std::string scenario = std::string(BLT_DATA_DIR) + "/scenarios/fabric_al_original.toml";
+  {
+    std::ofstream csv(fs::path(dir) / "shots.csv");
+    csv << "case,diameter_mm,velocity_km_s,layer,hole_h_mm\n05,1.2,4.03,outer,1.8\n06,1.0,4.03,outer,1.7\n"
+           "07,0.8,4.03,outer,1.5\n";
+  }
+  // strength:outer writes derived cards, whose paths are part of a run's settings: shared by the parts in one folder.
+  const std::string command = "calibrate --measured '" + dir + "/shots.csv' --scenario '" + scenario +
+                              "' --set resolution.particle_spacing=0.2mm --set resolution.cell_size=0.4mm "
+                              "--set run.max_time=8us --effects strength:outer --grid 2 --report '" + dir + "/report'";
+  std::size_t partRuns = 0;
+  for (int task = 1; task <= 2; ++task) {
+    const std::string part = dir + "/parts/part-" + std::to_string(task) + ".sqlite";
+    const BltRun r = runBlt(command + " --task " + std::to_string(task) + "/2 --db '" + part + "' --json");
+    REQUIRE_MESSAGE(r.status == 0, r.output);
+    const auto doc = nlohmann::json::parse(r.output.substr(r.output.find('{')));
+    // Nine predictions (three shots at the base and at strength x 0.5 and x 2), a run each: 5 for task 1, 4 for 2.
+    CHECK(doc["planned_predictions"] == 9);
+    CHECK(doc["predictions"] == (task == 1 ? 5 : 4));
+    CHECK(doc["runs_made"] == (task == 1 ? 5 : 4));
+    partRuns += campaign::RunDatabase(part).calibrationRuns().size();
+  }
+  CHECK(partRuns == 9);
+  CHECK_FALSE(fs::exists(fs::path(dir) / "report" / "report.md"));  // a task writes no report
+  const std::string merged = dir + "/parts/all.sqlite";
+  const BltRun merge = runBlt("campaign merge '" + dir + "/parts/part-1.sqlite' '" + dir + "/parts/part-2.sqlite' --db '" +
+                              merged + "'");
+  REQUIRE_MESSAGE(merge.status == 0, merge.output);
+  const BltRun whole = runBlt(command + " --db '" + merged + "'");
+  REQUIRE_MESSAGE(whole.status == 0, whole.output);
+  CHECK(whole.output.find("run: ") == std::string::npos);
+  CHECK(campaign::RunDatabase(merged).calibrationRuns().size() == 9);
+  CHECK(fs::exists(fs::path(dir) / "report" / "report.md"));
+  // The analytical model has no runs to share out.
+  const BltRun analytic = runBlt("calibrate --measured '" + std::string(BLT_DATA_DIR) +
+                                 "/calibrate/residual_velocity_plug.csv' --model recht-ipson --v-bl 133.8m/s --report '" +
+                                 dir + "/analytic' --task 1/2");
+  CHECK(analytic.status != 0);
+  CHECK(analytic.output.find("--task") != std::string::npos);
   fs::remove_all(dir);
 }
 

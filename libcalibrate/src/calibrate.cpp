@@ -5,6 +5,7 @@
 #include <limits>
 #include <numeric>
 
+#include "blt/campaign/runner.hpp"
 #include "blt/core/error.hpp"
 #include "blt/core/units.hpp"
 
@@ -246,19 +247,70 @@ double pearson(const std::vector<double>& x, const std::vector<double>& y) {
   return sxx > 0 && syy > 0 ? sxy / std::sqrt(sxx * syy) : 0.0;
 }
 
-}  // namespace
-
-CalibrationResult calibrate(Model& model, const MeasuredData& data, const CalibrationOptions& options) {
-  if (data.cases.size() < 3)
-    throw InputError(InputLocation::file(data.source), "only " + std::to_string(data.cases.size()) + " case(s) measured",
-                     "at least 3 cases, so that an effect can be checked on held-out cases");
-  model.check(data);
+// The effects a calibration fits: those named, else every effect of the model.
+std::vector<const Effect*> selectedEffects(const Model& model, const CalibrationOptions& options) {
   std::vector<const Effect*> effects;
   if (options.effects.empty()) {
     for (const Effect& e : model.effects()) effects.push_back(&e);
   } else {
     for (const std::string& name : options.effects) effects.push_back(&findEffect(model, name, InputLocation::flag("--effects")));
   }
+  return effects;
+}
+
+void checkCaseCount(const MeasuredData& data) {
+  if (data.cases.size() < 3)
+    throw InputError(InputLocation::file(data.source), "only " + std::to_string(data.cases.size()) + " case(s) measured",
+                     "at least 3 cases, so that an effect can be checked on held-out cases");
+}
+
+}  // namespace
+
+std::vector<PlannedPrediction> plannedPredictions(const Model& model, const MeasuredData& data,
+                                                  const CalibrationOptions& options) {
+  checkCaseCount(data);
+  model.check(data);
+  const int refineSteps = options.refineSteps >= 0 ? options.refineSteps : model.suggestedRefineSteps();
+  if (refineSteps > 0)
+    throw InputError(InputLocation::flag("--refine"), "a fit with " + std::to_string(refineSteps) +
+                         " golden-section steps picks its parameter values from the errors it finds, so its "
+                         "predictions cannot be shared out beforehand",
+                     "--refine 0 (the grid only)");
+  const int gridPoints = options.gridPoints > 0 ? options.gridPoints : model.suggestedGridPoints();
+  std::vector<PlannedPrediction> plan;
+  for (std::size_t c = 0; c < data.cases.size(); ++c) plan.push_back({{}, c});
+  for (const Effect* effect : selectedEffects(model, options))
+    for (double x : gridOf(effect->parameter, gridPoints))
+      if (x != effect->parameter.neutral)
+        for (std::size_t c = 0; c < data.cases.size(); ++c) plan.push_back({{effect, x}, c});
+  return plan;
+}
+
+std::size_t predictShare(Model& model, const MeasuredData& data, const std::vector<PlannedPrediction>& plan,
+                         int taskIndex, int taskCount) {
+  if (taskCount < 1 || taskIndex < 1 || taskIndex > taskCount)
+    throw InputError(InputLocation::flag("--task"),
+                     "task " + std::to_string(taskIndex) + "/" + std::to_string(taskCount) + " does not exist",
+                     "I/N with 1 <= I <= N");
+  // Grouped by setting, so that the model can run one setting's cases at once (its --jobs).
+  std::vector<std::pair<EffectSetting, std::vector<std::size_t>>> groups;
+  std::size_t made = 0;
+  for (std::size_t k = 0; k < plan.size(); ++k) {
+    if (!campaign::ownsPoint(static_cast<int>(k), taskIndex, taskCount)) continue;
+    const PlannedPrediction& p = plan[k];
+    if (groups.empty() || groups.back().first.effect != p.setting.effect || groups.back().first.value != p.setting.value)
+      groups.push_back({p.setting, {}});
+    groups.back().second.push_back(p.caseIndex);
+    ++made;
+  }
+  for (const auto& [setting, cases] : groups) model.predict(data, cases, setting);
+  return made;
+}
+
+CalibrationResult calibrate(Model& model, const MeasuredData& data, const CalibrationOptions& options) {
+  checkCaseCount(data);
+  model.check(data);
+  const std::vector<const Effect*> effects = selectedEffects(model, options);
 
   CalibrationResult result;
   result.model = model.describe();

@@ -7,9 +7,12 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <numbers>
 #include <sstream>
 #include <thread>
+
+#include <unistd.h>
 
 #include "blt/campaign/database.hpp"
 #include "blt/core/error.hpp"
@@ -330,9 +333,29 @@ std::string SolverModel::writeDerivedCard(Material m, const std::string& materia
   const std::string card = (std::filesystem::path(options_.cardDirectory) /
                             (fileNamePart(material) + "_" + fileNamePart(change) + value(amount, "", 1.0) + ".toml"))
                                .string();
-  std::ofstream out(card);
-  if (!out) throw InputError(InputLocation::file(card), "cannot write the derived material card", "a writable card directory");
-  out << materialToToml(m);
+  // Written whole under a name of its own, then renamed: another run (of this calibration's jobs, or of another
+  // task sharing the card directory) may be reading the card while it is written again, and must see the old
+  // text or the new one (the same), never a truncated file.
+  const std::string part = card + ".part." + std::to_string(::getpid()) + "." +
+                           std::to_string(std::hash<std::thread::id>{}(std::this_thread::get_id()));
+  {
+    std::ofstream out(part);
+    out << materialToToml(m);
+    out.close();
+    if (!out) {
+      std::error_code ignored;
+      std::filesystem::remove(part, ignored);
+      throw InputError(InputLocation::file(card), "cannot write the derived material card", "a writable card directory");
+    }
+  }
+  std::error_code renamed;
+  std::filesystem::rename(part, card, renamed);
+  if (renamed) {
+    std::error_code ignored;
+    std::filesystem::remove(part, ignored);
+    throw InputError(InputLocation::file(card), "cannot put the derived material card in place: " + renamed.message(),
+                     "a writable card directory");
+  }
   return card;
 }
 

@@ -128,6 +128,24 @@ struct CalibrationResult {
 
 CalibrationResult calibrate(Model& model, const MeasuredData& data, const CalibrationOptions& options = {});
 
+// Splitting one calibration over machines. Every prediction calibrate() asks of the model, in the order it asks:
+// the base at each case, then each effect at each grid value but its neutral one (there the effect is off and
+// the base serves). The list is fixed by the data and the options, not by what the model predicts, only when
+// the fit has no golden-section steps (the solver model's default): otherwise an InputError naming --refine.
+struct PlannedPrediction {
+  EffectSetting setting;  // effect nullptr: the base model
+  std::size_t caseIndex = 0;
+};
+std::vector<PlannedPrediction> plannedPredictions(const Model& model, const MeasuredData& data,
+                                                  const CalibrationOptions& options = {});
+
+// Makes task `taskIndex`'s share of `plan` (1-based, of `taskCount`): prediction k belongs to task k mod N + 1, as
+// a campaign's points do. Worth it for a model that records what it computes (the solver model's run database):
+// each task records its runs in a database of its own, the parts merged (blt campaign merge) let calibrate() on
+// the merged file run nothing. Returns the number of predictions made.
+std::size_t predictShare(Model& model, const MeasuredData& data, const std::vector<PlannedPrediction>& plan,
+                         int taskIndex, int taskCount);
+
 // The residual of one observation (SI, see above) and its prediction as a number (outcome 1/0, v_r, hole size).
 double residualOf(const Observation& o, const Prediction& p);
 double predictedValue(const Observation& o, const Prediction& p);
