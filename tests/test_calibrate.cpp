@@ -1041,19 +1041,28 @@ TEST_CASE("calibrate: the runs an earlier blt kept in runs.jsonl are copied into
   fs::remove_all(dir);
 }
 
-TEST_CASE("calibrate: the command line runs each simulation in a blt process of its own and records it in DIR/runs.sqlite") {
-  const std::string dir = tempDir("cli_solver");
+namespace {
+
+// A solver calibration on the command line: three shots with outer-layer holes written to DIR/shots.csv, the
+// coating at 0.2 mm for 8 us (a fraction of a second a run), one effect on a grid of 2, the report in DIR/report.
+std::string threeShotCalibration(const std::string& dir, const std::string& effect) {
   fs::create_directories(dir);
-  const std::string scenario = std::string(BLT_DATA_DIR) + "/scenarios/fabric_al_original.toml";
   {
     std::ofstream csv(fs::path(dir) / "shots.csv");
     csv << "case,diameter_mm,velocity_km_s,layer,hole_h_mm\n05,1.2,4.03,outer,1.8\n06,1.0,4.03,outer,1.7\n"
            "07,0.8,4.03,outer,1.5\n";
   }
-  const std::string command = "calibrate --measured '" + dir + "/shots.csv' --scenario '" + scenario +
-                              "' --set resolution.particle_spacing=0.2mm --set resolution.cell_size=0.4mm "
-                              "--set run.max_time=8us --effects thickness:outer --grid 2 --report '" +
-                              dir + "/report'";
+  const std::string scenario = std::string(BLT_DATA_DIR) + "/scenarios/fabric_al_original.toml";
+  return "calibrate --measured '" + dir + "/shots.csv' --scenario '" + scenario +
+         "' --set resolution.particle_spacing=0.2mm --set resolution.cell_size=0.4mm --set run.max_time=8us --effects " +
+         effect + " --grid 2 --report '" + dir + "/report'";
+}
+
+}  // namespace
+
+TEST_CASE("calibrate: the command line runs each simulation in a blt process of its own and records it in DIR/runs.sqlite") {
+  const std::string dir = tempDir("cli_solver");
+  const std::string command = threeShotCalibration(dir, "thickness:outer");
   const BltRun first = runBlt(command);
   REQUIRE_MESSAGE(first.status == 0, first.output);
   std::size_t runs = 0;
@@ -1074,17 +1083,8 @@ TEST_CASE("calibrate: the command line runs each simulation in a blt process of 
 
 TEST_CASE("calibrate: the command line splits a calibration's runs over tasks; merged, the calibration makes none") {
   const std::string dir = tempDir("cli_tasks");
-  fs::create_directories(dir);
-  const std::string scenario = std::string(BLT_DATA_DIR) + "/scenarios/fabric_al_original.toml";
-  {
-    std::ofstream csv(fs::path(dir) / "shots.csv");
-    csv << "case,diameter_mm,velocity_km_s,layer,hole_h_mm\n05,1.2,4.03,outer,1.8\n06,1.0,4.03,outer,1.7\n"
-           "07,0.8,4.03,outer,1.5\n";
-  }
   // strength:outer writes derived cards, whose paths are part of a run's settings: shared by the parts in one folder.
-  const std::string command = "calibrate --measured '" + dir + "/shots.csv' --scenario '" + scenario +
-                              "' --set resolution.particle_spacing=0.2mm --set resolution.cell_size=0.4mm "
-                              "--set run.max_time=8us --effects strength:outer --grid 2 --report '" + dir + "/report'";
+  const std::string command = threeShotCalibration(dir, "strength:outer");
   std::size_t partRuns = 0;
   for (int task = 1; task <= 2; ++task) {
     const std::string part = dir + "/parts/part-" + std::to_string(task) + ".sqlite";
