@@ -179,6 +179,42 @@ ImpactResult runModel(const ImpactScenario& sc, const ImpactRunOptions& options)
                           {"contact_dissipation_J", e.contactDissipation * whole},
                           {"boundary_work_J", e.boundaryWork * whole}};
   };
+  // What the solver took out, per body, for the whole target: points eroded (either erosion rule, or failed and
+  // turned inside out) and points that flew off the grid (spray off the front face, debris past the lateral
+  // edges), each with its mass and the kinetic energy it had when it went. A removed point keeps its last
+  // velocity, so this is kinetic energy of the energy history that no longer acts on anything, and eroded
+  // momentum that no layer behind feels. With solver.keep_eroded_mass eroded points stay, as stress-free mass.
+  nlohmann::json removed = nlohmann::json::array();
+  {
+    const Particles<D>& pts = solver.particles();
+    struct Tally {
+      std::size_t particles = 0;
+      double mass = 0, kinetic = 0;
+      nlohmann::json json(double whole) const {
+        return {{"particles", particles}, {"mass_kg", mass * whole}, {"kinetic_energy_J", kinetic * whole}};
+      }
+    };
+    const std::size_t bodies = model.layers.size() + 1;
+    std::vector<Tally> eroded(bodies), offGrid(bodies), kept(bodies);
+    std::vector<double> mass(bodies, 0.0);
+    for (std::size_t p = 0; p < pts.size(); ++p) {
+      const auto b = static_cast<std::size_t>(pts.body[p]);
+      if (b >= bodies) continue;
+      mass[b] += pts.mass[p];
+      Tally* t = !pts.active[p] ? (solver.offGrid(pts.position[p]) ? &offGrid[b] : &eroded[b])
+                                : (pts.failed[p] == kEroded ? &kept[b] : nullptr);
+      if (!t) continue;
+      ++t->particles;
+      t->mass += pts.mass[p];
+      t->kinetic += 0.5 * pts.mass[p] * pts.velocity[p].squaredNorm();
+    }
+    for (std::size_t b = 0; b < bodies; ++b)
+      removed.push_back({{"body", b == 0 ? std::string("projectile") : model.layers[b - 1].name},
+                         {"body_mass_kg", mass[b] * whole},
+                         {"eroded", eroded[b].json(whole)},
+                         {"off_grid", offGrid[b].json(whole)},
+                         {"eroded_kept", kept[b].json(whole)}});
+  }
   nlohmann::json doc = {
       {"scenario", sc.name},
       {"scenario_file", sc.path},
@@ -211,6 +247,7 @@ ImpactResult runModel(const ImpactScenario& sc, const ImpactRunOptions& options)
       {"steps", r.steps},
       {"particles", result.particles},
       {"inactive_particles", solver.particles().size() - solver.activeParticles()},
+      {"removed", removed},
       {"wall_time_s", r.wallSeconds},
       {"resumed_at_time_s", std::isnan(r.resumedAt) ? nlohmann::json() : nlohmann::json(r.resumedAt)},
       {"run", r.summary}};

@@ -167,6 +167,7 @@ void readSolver(TomlKeys r, SolverOptions& o) {
   o.viscosity.quadratic = r.nonNegative("viscosity_quadratic", units::dimensionless, o.viscosity.quadratic);
   o.erosionExpansion = r.nonNegative("erosion_expansion", units::dimensionless, o.erosionExpansion);
   o.erosionSoundSpeed = r.nonNegative("erosion_sound_speed", units::dimensionless, o.erosionSoundSpeed);
+  o.keepErodedMass = r.boolean("keep_eroded_mass", o.keepErodedMass);
   r.finish();
 }
 

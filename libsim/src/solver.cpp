@@ -596,6 +596,10 @@ void Solver<D>::updateStress() {
 #pragma omp parallel for schedule(static) reduction(max : fastest) num_threads(threads_) if (parallel_)
   for (long k = 0; k < count; ++k) {
     const int p = order_[static_cast<std::size_t>(k)];
+    if (particles_.failed[p] == kEroded) {  // a stress-free mass point: only its speed limits the step
+      fastest = std::max(fastest, particles_.velocity[p].norm());
+      continue;
+    }
     const long off = bodies_ > 1 ? particles_.body[p] * N : 0;
     Mat3 L = Mat3::Zero();
     double vr = 0;
@@ -624,7 +628,7 @@ void Solver<D>::updateStress() {
     // Failed points carry no tension and, expanded, no pressure, so nothing stops their lattice from folding
     // over in a debris cloud. One turned inside out (J <= 0) has no volume left to mean anything: it goes.
     if (particles_.failed[p] && !(J > 0 && std::isfinite(J))) {
-      particles_.active[p] = 0;
+      if (erode(p)) fastest = std::max(fastest, particles_.velocity[p].norm());
       continue;
     }
     const double V = particles_.initialVolume[p] * J;
@@ -659,19 +663,32 @@ void Solver<D>::updateStress() {
     particles_.plasticWork[p] += u.plasticWorkDensity * V;
     particles_.viscousWork[p] += -q * trD * dt * V;
     particles_.soundSpeed[p] = u.soundSpeed;
-    if (options_.erosionExpansion > 0 && s.failed && J > options_.erosionExpansion) particles_.active[p] = 0;
-    // Seed 001 Eq. 8; the viscosity stiffens the step like an extra sound speed.
-    const double cEff = u.soundSpeed + (q > 0 ? 2.0 * visc.quadratic * h * std::fabs(trD) : 0.0);
-    if (s.failed && erosionSoundSpeedLimit_ > 0 && u.soundSpeed > erosionSoundSpeedLimit_) {
-      particles_.active[p] = 0;
+    if ((options_.erosionExpansion > 0 && s.failed && J > options_.erosionExpansion) ||
+        (s.failed && erosionSoundSpeedLimit_ > 0 && u.soundSpeed > erosionSoundSpeedLimit_)) {
+      if (erode(p)) fastest = std::max(fastest, particles_.velocity[p].norm());
       continue;
     }
+    // Seed 001 Eq. 8; the viscosity stiffens the step like an extra sound speed.
+    const double cEff = u.soundSpeed + (q > 0 ? 2.0 * visc.quadratic * h * std::fabs(trD) : 0.0);
     fastest = std::max(fastest, cEff + particles_.velocity[p].norm());
   }
   time_ += dt_;
   ++steps_;
   const double dtMin = h / fastest;
   if (std::isfinite(dtMin) && dtMin > 0) dt_ = options_.timeStepSafety * dtMin;
+}
+
+template <int D>
+bool Solver<D>::erode(int p) {
+  if (!options_.keepErodedMass) {
+    particles_.active[p] = 0;
+    return false;
+  }
+  particles_.failed[p] = kEroded;
+  particles_.stress[p].setZero();
+  particles_.viscousPressure[p] = 0.0;
+  particles_.soundSpeed[p] = 0.0;
+  return true;
 }
 
 // ---------------------------------------------------------------------------------------------------------
@@ -694,6 +711,16 @@ EnergyBalance Solver<D>::energies() const {
   e.contactDissipation = contactDissipation_;
   e.boundaryWork = boundaryWork_;
   return e;
+}
+
+template <int D>
+bool Solver<D>::offGrid(const Vec<D>& x) const {
+  const double h = spec_.cellSize;
+  for (int a = 0; a < D; ++a) {
+    const double xi = x[a] - spec_.lower[a];
+    if (!(xi >= -0.5 * h && xi <= (nodes_[a] - 1) * h + 0.5 * h)) return true;
+  }
+  return false;
 }
 
 template <int D>

@@ -16,6 +16,10 @@ template <int D>
 using Vec = Eigen::Matrix<double, D, 1>;
 using Mat3 = Eigen::Matrix3d;
 
+// Particles::failed of a point that erosion took out of the material but kept as a stress-free mass point
+// (SolverOptions::keepErodedMass).
+inline constexpr std::uint8_t kEroded = 2;
+
 template <int D>
 struct Particles {
   // Kinematics.
@@ -37,7 +41,7 @@ struct Particles {
   std::vector<double> soundSpeed;       // m/s, from the last stress update (time step control)
   std::vector<double> plasticWork;      // J, accumulated (energy history)
   std::vector<double> viscousWork;      // J, accumulated
-  std::vector<std::uint8_t> failed;     // 1 when the failure model has triggered
+  std::vector<std::uint8_t> failed;     // 1 when the failure model has triggered; kEroded: eroded, mass kept
   std::vector<std::uint8_t> active;     // 0 once a particle has left the grid or has been eroded
   std::vector<int> material;            // index into the solver's material list
   std::vector<int> body;                // body id (projectile 0, layers 1..); separate nodal fields per body
