@@ -626,7 +626,7 @@ void Solver<D>::updateStress() {
     F = (Mat3::Identity() + dt * L) * F;
     const double J = F.determinant();
     // Failed points carry no tension and, expanded, no pressure, so nothing stops their lattice from folding
-    // over in a debris cloud. One turned inside out (J <= 0) has no volume left to mean anything: it goes.
+    // over in a debris cloud. One turned inside out (J <= 0) has no volume left to mean anything: it is eroded.
     if (particles_.failed[p] && !(J > 0 && std::isfinite(J))) {
       if (erode(p)) fastest = std::max(fastest, particles_.velocity[p].norm());
       continue;
