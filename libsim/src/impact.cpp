@@ -1,5 +1,6 @@
 #include "blt/sim/impact.hpp"
 
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -196,11 +197,14 @@ ImpactResult runModel(const ImpactScenario& sc, const ImpactRunOptions& options)
     };
     const std::size_t bodies = model.layers.size() + 1;
     std::vector<Tally> eroded(bodies), offGrid(bodies), kept(bodies);
+    std::vector<std::array<double, 2 * D>> offGridByFace(bodies);  // mass through each face
     std::vector<double> mass(bodies, 0.0);
     for (std::size_t p = 0; p < pts.size(); ++p) {
       const auto b = static_cast<std::size_t>(pts.body[p]);
       if (b >= bodies) continue;
       mass[b] += pts.mass[p];
+      const int face = pts.active[p] ? -1 : solver.exitFace(pts.position[p]);
+      if (face >= 0) offGridByFace[b][static_cast<std::size_t>(face)] += pts.mass[p];
       Tally* t = !pts.active[p] ? (solver.offGrid(pts.position[p]) ? &offGrid[b] : &eroded[b])
                                 : (pts.failed[p] == kEroded ? &kept[b] : nullptr);
       if (!t) continue;
@@ -208,12 +212,25 @@ ImpactResult runModel(const ImpactScenario& sc, const ImpactRunOptions& options)
       t->mass += pts.mass[p];
       t->kinetic += 0.5 * pts.mass[p] * pts.velocity[p].squaredNorm();
     }
-    for (std::size_t b = 0; b < bodies; ++b)
+    // Faces by axis and side: x-, x+, y-, y+, z-, z+ (r-, r+, z-, z+ in axisymmetric runs). Only those crossed.
+    const auto faceName = [](int face) {
+      static const char* const axes3[] = {"x", "y", "z"};
+      static const char* const axes2[] = {"r", "z"};
+      return std::string(D == 2 ? axes2[face / 2] : axes3[face / 2]) + (face % 2 ? "+" : "-");
+    };
+    for (std::size_t b = 0; b < bodies; ++b) {
+      nlohmann::json faces = nlohmann::json::object();
+      for (int f = 0; f < 2 * D; ++f)
+        if (offGridByFace[b][static_cast<std::size_t>(f)] > 0)
+          faces[faceName(f)] = offGridByFace[b][static_cast<std::size_t>(f)] * whole;
+      nlohmann::json off = offGrid[b].json(whole);
+      off["mass_by_face_kg"] = faces;
       removed.push_back({{"body", b == 0 ? std::string("projectile") : model.layers[b - 1].name},
                          {"body_mass_kg", mass[b] * whole},
                          {"eroded", eroded[b].json(whole)},
-                         {"off_grid", offGrid[b].json(whole)},
+                         {"off_grid", off},
                          {"eroded_kept", kept[b].json(whole)}});
+    }
   }
   nlohmann::json doc = {
       {"scenario", sc.name},

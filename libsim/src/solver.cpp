@@ -724,6 +724,19 @@ bool Solver<D>::offGrid(const Vec<D>& x) const {
 }
 
 template <int D>
+int Solver<D>::exitFace(const Vec<D>& x) const {
+  if (!x.allFinite() || !offGrid(x)) return -1;
+  int face = -1;
+  double farthest = 0;
+  for (int a = 0; a < D; ++a) {
+    const double below = spec_.lower[a] - x[a], above = x[a] - spec_.upper[a];
+    if (below > farthest) farthest = below, face = 2 * a;
+    if (above > farthest) farthest = above, face = 2 * a + 1;
+  }
+  return face;
+}
+
+template <int D>
 long Solver<D>::firstNonFiniteParticle() const {
   for (std::size_t p = 0; p < particles_.size(); ++p) {
     if (!particles_.position[p].allFinite() || !particles_.velocity[p].allFinite() ||
