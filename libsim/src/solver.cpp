@@ -593,10 +593,11 @@ void Solver<D>::updateStress() {
   // The fastest signal (sound speed plus particle speed) sets the next step: h over its maximum is the minimum of
   // h over each, to the last bit, as division rounds monotonically; one division instead of one per point.
   double fastest = 0.0;
+  const bool keptEroded = options_.keepErodedMass;
 #pragma omp parallel for schedule(static) reduction(max : fastest) num_threads(threads_) if (parallel_)
   for (long k = 0; k < count; ++k) {
     const int p = order_[static_cast<std::size_t>(k)];
-    if (particles_.failed[p] == kEroded) {  // a stress-free mass point: only its speed limits the step
+    if (keptEroded && particles_.failed[p] == kEroded) {  // a stress-free mass point: only its speed limits the step
       fastest = std::max(fastest, particles_.velocity[p].norm());
       continue;
     }
