@@ -136,6 +136,40 @@ TEST_CASE("impact model: a yawed cylinder lies along its tilted axis and flies a
                  "projectile.yaw"));
 }
 
+TEST_CASE("impact model: an off-centre aim moves the shot line's meeting with the front face and nothing else") {
+  // Reference: the definition of projectile.aim_offset. The line through the projectile's centre of mass along its
+  // velocity (sin 45, 0, -cos 45) meets z = 0 at x = cx + cz tan 45: the offset asked for (0 by default).
+  std::size_t centred = 0;  // target points of the centred shot
+  for (const double aim : {0.0, -2e-3, 1.5e-3}) {
+    CAPTURE(aim);
+    const ImpactScenario sc = parseScenario(plateScenario(), "plate.toml",
+                                            {"projectile.angle=45deg", "projectile.aim_offset=" + std::to_string(aim * 1e3) + "mm"});
+    const ImpactModel<3> m = buildImpactModel<3>(sc, 1);
+    const auto& P = m.solver->particles();
+    double mass = 0, cx = 0, cz = 0;
+    std::size_t targetPoints = 0;
+    for (std::size_t p = 0; p < P.size(); ++p) {
+      if (P.body[p] != 0) {
+        ++targetPoints;
+        continue;
+      }
+      mass += P.mass[p], cx += P.mass[p] * P.position[p][0], cz += P.mass[p] * P.position[p][2];
+    }
+    cx /= mass, cz /= mass;
+    CHECK(cx + cz * std::tan(M_PI / 4) == doctest::Approx(aim).epsilon(1e-9).scale(1e-3));
+    CHECK(m.shotLineAt(0.0)[0] == doctest::Approx(aim).epsilon(1e-9).scale(1e-3));
+    if (aim == 0.0) centred = targetPoints;
+    CHECK(targetPoints == centred);  // the target is where it was
+  }
+  // A normal impact is modelled about its axis; the line must meet the target.
+  CHECK(contains(messageOf([] { parseScenario(plateScenario(), "plate.toml", {"projectile.aim_offset=1mm"}); }),
+                 "projectile.aim_offset"));
+  CHECK(contains(messageOf([] {
+                   parseScenario(plateScenario(), "plate.toml", {"projectile.angle=30deg", "projectile.aim_offset=-5mm"});
+                 }),
+                 "off the target"));
+}
+
 TEST_CASE("impact model: a grid offset moves the nodes along the normal and leaves the bodies where they are") {
   // Reference: the definition of resolution.grid_offset, f of a cell: node 0 lies f h further back, every
   // particle of the model has the same position, volume and mass.

@@ -199,9 +199,10 @@ ImpactModel<D> buildImpactModel(const ImpactScenario& sc, int threads) {
   Vec<D> shift = Vec<D>::Zero();
   shift[D - 1] = h - lowest;
   if constexpr (D == 3) {
-    // The shot line through the centre of mass meets the front face at x = 0; across the symmetry plane y = 0.
+    // The shot line through the centre of mass meets the front face at x = aim_offset (0: the target's centre);
+    // across the symmetry plane y = 0.
     const double zc = centre[2] + shift[2];
-    if (!m.mirrorX) shift[0] = -(centre[0] + zc * std::tan(theta));
+    if (!m.mirrorX) shift[0] = pj.aimOffset - (centre[0] + zc * std::tan(theta));
   }
   for (std::size_t i = begin; i < P.size(); ++i) {
     P.position[i] += shift;

@@ -71,6 +71,7 @@ void readProjectile(TomlKeys r, ProjectileSpec& p) {
   if (p.angle >= 0.5 * M_PI - 1e-9)
     throw InputError(r.at("angle"), "the angle from the target normal must be below 90 deg", "0 deg to 89 deg");
   p.spacing = r.positive("spacing", units::length, 0);
+  p.aimOffset = r.quantity("aim_offset", units::length, 0);
   p.yaw = r.quantity("yaw", units::angle, 0);
   if (p.yaw != 0 && p.shape == ProjectileShape::sphere)
     throw InputError(r.at("yaw"), "a sphere has no axis to yaw", "yaw = \"0 deg\", or shape = \"cylinder\"");
@@ -261,6 +262,15 @@ ImpactScenario parseScenario(const std::string& text, const std::string& sourceN
   if (sc.run.mode == ModelMode::axisymmetric && std::fabs(sc.projectile.yaw) > 1e-9)
     throw InputError(r.at("run"), "a yawed projectile cannot run axisymmetric",
                      "mode = \"3d\" or \"auto\", or projectile.yaw = \"0 deg\"");
+  if (sc.projectile.aimOffset != 0) {
+    const InputLocation aim = InputLocation::file(sourceName, std::nullopt, "projectile.aim_offset");
+    if (sc.resolvedMode() == ModelMode::axisymmetric || (sc.projectile.angle < 1e-9 && std::fabs(sc.projectile.yaw) < 1e-9))
+      throw InputError(aim, "an off-centre aim needs a 3D half model: a normal impact is modelled about its axis",
+                       "aim_offset = \"0 mm\", or an oblique or yawed shot");
+    if (std::fabs(sc.projectile.aimOffset) >= 0.5 * sc.target.lateralSize)
+      throw InputError(aim, "the shot line would meet the front face off the target",
+                       "|aim_offset| below half the lateral size, " + units::format(0.5 * sc.target.lateralSize, "mm", 4));
+  }
   const double h = sc.cellSize();
   if (sc.projectileSpacing() > h)
     throw InputError(InputLocation::file(sourceName, std::nullopt, "projectile.spacing"),

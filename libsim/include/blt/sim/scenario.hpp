@@ -39,6 +39,10 @@ struct ProjectileSpec {
   // rad, cylinder only: the axis's angle from the flight path, in the plane of incidence; the axis makes
   // angle + yaw with the target normal (positive: the nose turned further from the normal).
   double yaw = 0;
+  // m: where the shot line meets the target's front face, along x (downrange positive) from the target's centre.
+  // An oblique shot's debris runs downrange between the layers; aiming upstream keeps more of it on the model's
+  // lateral extent. 3D half models only (an oblique or yawed shot).
+  double aimOffset = 0;
   double spacing = 0;                // m, particle spacing; 0: resolution.particle_spacing
 };
 
