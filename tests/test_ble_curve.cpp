@@ -175,7 +175,7 @@ TEST_CASE("ble curve: the SVG is well-formed with one curve per angle, one marke
   CHECK(svg.find("<seed000>") == std::string::npos);
 }
 
-TEST_CASE("ble curve: no band without covariance; points at other angles are drawn grey") {
+TEST_CASE("ble curve: no band without covariance, points at other angles are drawn grey") {
   const auto fit = seedFit();
   auto options = referenceGrid();
   options.angles = {0.0};

@@ -203,7 +203,7 @@ TEST_CASE("ble store: a fit comes back exactly as saved, after the file is close
                     "AND json_extract(options, '$.wrong_side_margin_m') BETWEEN 6.6e-6 AND 6.7e-6") == 2);
 }
 
-TEST_CASE("ble store: listFits gives summaries ordered by name; saveFit sets the time when none is given") {
+TEST_CASE("ble store: listFits gives summaries ordered by name, saveFit sets the time when none is given") {
   const auto path = freshPath("list.db");
   BleStore store(path);
   StoredFit b = handMadeFit("bravo");
@@ -229,7 +229,7 @@ TEST_CASE("ble store: listFits gives summaries ordered by name; saveFit sets the
   CHECK(matchesShape(list[0].createdUtc, "dddd-dd-ddTdd:dd:ddZ"));
 }
 
-TEST_CASE("ble store: an existing name needs replace; replacing drops the old data set") {
+TEST_CASE("ble store: an existing name needs replace, replacing drops the old data set") {
   const auto path = freshPath("replace.db");
   BleStore store(path);
   const StoredFit first = handMadeFit("fit-a");

@@ -206,7 +206,7 @@ TEST_CASE("calibrate: the planned predictions are those a calibration asks for, 
   CHECK(messageOf([&] { predictShare(whole, data, plan, 4, 3); }).find("--task") != std::string::npos);
 }
 
-TEST_CASE("calibrate: synthesize makes data from a model with an effect; noise-free, the calibrator recovers it") {
+TEST_CASE("calibrate: synthesize makes data from a model with an effect, and noise-free the calibrator recovers it") {
   // The shape: the shots of residualCsv, with residual velocities and outcomes.
   std::ostringstream csv;
   csv << "case,impact_velocity_m_s,residual_velocity_m_s,perforated\n";
@@ -953,7 +953,7 @@ nlohmann::json fakeSummary(bool perforated, double hole, const std::string& stat
 
 }  // namespace
 
-TEST_CASE("calibrate: a crashed run stops the calibration and is made again; one gone unstable is used and kept") {
+TEST_CASE("calibrate: a crashed run stops the calibration and is made again, and one gone unstable is used and kept") {
   const std::string dir = tempDir("failed_runs");
   const std::string scenario = std::string(BLT_DATA_DIR) + "/scenarios/fabric_al_original.toml";
   const MeasuredData data = parse("case,diameter_mm,velocity_km_s,layer,hole_h_mm\n05,1.2,4.03,outer,1.8\n");
@@ -1081,7 +1081,7 @@ TEST_CASE("calibrate: the command line runs each simulation in a blt process of 
   fs::remove_all(dir);
 }
 
-TEST_CASE("calibrate: the command line splits a calibration's runs over tasks; merged, the calibration makes none") {
+TEST_CASE("calibrate: the command line splits a calibration's runs over tasks, and on the merged parts the calibration makes none") {
   const std::string dir = tempDir("cli_tasks");
   // strength:outer writes derived cards, whose paths are part of a run's settings: shared by the parts in one folder.
   const std::string command = threeShotCalibration(dir, "strength:outer");

@@ -67,7 +67,7 @@ TEST_CASE("scenario: every shipped scenario file reads and its materials resolve
   CHECK(files == 8);  // the eight scenarios issue 5 asks for
 }
 
-TEST_CASE("scenario: settings change any key; layers by number or by name") {
+TEST_CASE("scenario: settings change any key, layers by number or by name") {
   const std::string dir = std::string(BLT_DATA_DIR) + "/scenarios/";
   // The corrected model of seed 000 sec. 5.3 is the original with 1.75 mm gaps before the MLI and the liner.
   const ImpactScenario original = loadScenario(dir + "fabric_al_original.toml");
@@ -315,7 +315,7 @@ TEST_CASE("verdict: a whole plate whose domains cross the symmetry plane has no 
   CHECK_FALSE(assessPerforation<3>(m, sc.verdict, {1.0, 1.0}, true).rearOpening);
 }
 
-TEST_CASE("verdict: debris sliding along the plate does not keep a run unsettled; debris moving rearward does") {
+TEST_CASE("verdict: debris sliding along the plate does not keep a run unsettled, debris moving rearward does") {
   // Reference: the definition in verdict.hpp, on states set by hand. The projectile's points move along the plate
   // (x) at 3 km/s: all the kinetic energy is there, none of it rearward, so the stop is settled. Turned towards
   // the rear at the same speed, its rearward kinetic energy equals the initial one: not settled.
@@ -501,7 +501,7 @@ std::vector<std::string> pvdTimes(const fs::path& p) {
 }
 }  // namespace
 
-TEST_CASE("impact: eroded points kept as mass carry their momentum on; removed, they take it out of the model") {
+TEST_CASE("impact: eroded points kept as mass carry their momentum on, and removed ones take it out of the model") {
   // Independent check: with free faces and no boundary forces, MPM conserves the axial momentum sum m v_z to
   // round-off (the nodal internal forces sum to zero by the shape functions' partition of unity, and P2G and G2P
   // pass momentum on whole). Seed 000's fabric target, axisymmetric and coarse, case 05 of Table 1 (1.2 mm,

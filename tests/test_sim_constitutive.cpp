@@ -115,7 +115,7 @@ TEST_CASE("MieGrueneisen: p = rho0 Us up on the Hugoniot, bulk modulus rho0 c0^2
     }
 }
 
-TEST_CASE("JohnsonCookStrength: 2A12 card against the formula; melt and low rate") {
+TEST_CASE("JohnsonCookStrength: 2A12 card against the formula, melt and low rate") {
   const SolidMaterial m = makeSolidMaterial(MaterialLibrary::load().get("al_2a12"));
   REQUIRE(m.johnsonCook);
   const JohnsonCookStrength& jc = *m.johnsonCook;
@@ -156,7 +156,7 @@ TEST_CASE("JohnsonCookStrength: 2A12 card against the formula; melt and low rate
   CHECK(qc.johnsonCook->yieldStress(0.05, 10.0, 500.0) == relApprox(qcHand, 1e-12));
 }
 
-TEST_CASE("ZerilliArmstrongFccStrength: cu_ofhc_za card against the formula; low rate; room temperature") {
+TEST_CASE("ZerilliArmstrongFccStrength: cu_ofhc_za card against the formula, low rate, room temperature") {
   const SolidMaterial m = makeSolidMaterial(MaterialLibrary::load().get("cu_ofhc_za"));
   const auto* za = dynamic_cast<const ZerilliArmstrongFccStrength*>(m.strength.get());
   REQUIRE(za != nullptr);
@@ -250,7 +250,7 @@ TEST_CASE("radial return, bilinear hardening: von Mises = sigma_y0 + H ep") {
   CHECK(s.plasticStrain >= 0.02);
 }
 
-TEST_CASE("bilinear strength with a rate term: (sigma_y0 + H ep)(1 + C ln(rate/rate0)); none without C") {
+TEST_CASE("bilinear strength with a rate term: (sigma_y0 + H ep)(1 + C ln(rate/rate0)), none without C") {
   const double Y0 = 300e6, Et = 7e9, C = 0.05, rate0 = 1e-2;
   const double H = kE * Et / (kE - Et);
   const SolidMaterial m = fromCard(card("model = \"bilinear\"\nyield_stress = \"300 MPa\"\ntangent_modulus = \"7 GPa\"\n"
@@ -318,7 +318,7 @@ TEST_CASE("Johnson-Cook adiabatic heating: dT = chi W_p / (rho cp)") {
   CHECK(work < m.johnsonCook->yieldStress(s.plasticStrain, rate, T0) * s.plasticStrain);
 }
 
-TEST_CASE("failure: max principal stress; a failed point carries compression only") {
+TEST_CASE("failure: max principal stress, a failed point carries compression only") {
   const SolidMaterial m = fromCard(
       card("model = \"elastic\"", "[failure]\nmodel = \"max-principal-stress\"\nmax_principal_stress = \"100 MPa\""),
       "mps");

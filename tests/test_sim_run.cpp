@@ -408,7 +408,7 @@ gamma0 = 1.53
 }
 }  // namespace
 
-TEST_CASE("sim: a failed point crushed to a tiny time step is eroded; intact material never is") {
+TEST_CASE("sim: a failed point crushed to a tiny time step is eroded, intact material never is") {
   // The bound is the option's definition: a failed point whose sound speed exceeds erosionSoundSpeed x the fastest
   // undeformed wave speed goes. The crushed point's sound speed is far above it; kept, it cuts the step below.
   SolverOptions o;

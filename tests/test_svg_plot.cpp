@@ -46,7 +46,7 @@ TEST_CASE("svg plot: one element per series point, open markers where asked, lab
   CHECK(text.find(">2.5</text>") != std::string::npos);
 }
 
-TEST_CASE("svg plot: log axes tick at decades and skip non-positive and non-finite points; y = x spans both") {
+TEST_CASE("svg plot: log axes tick at decades and skip non-positive and non-finite points, y = x spans both") {
   svg::Series s;
   s.x = {0.01, 0.1, 1, 10, -1, std::numeric_limits<double>::quiet_NaN()};
   s.y = {0.02, 0.2, 2, 20, 5, 5};
@@ -62,7 +62,7 @@ TEST_CASE("svg plot: log axes tick at decades and skip non-positive and non-fini
     CHECK_MESSAGE(text.find(tick) != std::string::npos, tick);
 }
 
-TEST_CASE("svg plot: a band without points is a legend entry only; a line with a NaN has a gap") {
+TEST_CASE("svg plot: a band without points is a legend entry only, a line with a NaN has a gap") {
   svg::Band shown{"", {1, 2, 3}, {1, 1, 1}, {2, 2, 2}, ""};
   svg::Band legendOnly{"90 % band", {}, {}, {}, "#777"};
   svg::Series line;
