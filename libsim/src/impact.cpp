@@ -203,10 +203,10 @@ ImpactResult runModel(const ImpactScenario& sc, const ImpactRunOptions& options)
       const auto b = static_cast<std::size_t>(pts.body[p]);
       if (b >= bodies) continue;
       mass[b] += pts.mass[p];
-      const int face = pts.active[p] ? -1 : solver.exitFace(pts.position[p]);
-      if (face >= 0) offGridByFace[b][static_cast<std::size_t>(face)] += pts.mass[p];
-      Tally* t = !pts.active[p] ? (solver.offGrid(pts.position[p]) ? &offGrid[b] : &eroded[b])
-                                : (pts.failed[p] == kEroded ? &kept[b] : nullptr);
+      const bool off = !pts.active[p] && solver.offGrid(pts.position[p]);
+      if (const int face = off ? solver.exitFace(pts.position[p]) : -1; face >= 0)
+        offGridByFace[b][static_cast<std::size_t>(face)] += pts.mass[p];
+      Tally* t = off ? &offGrid[b] : !pts.active[p] ? &eroded[b] : pts.failed[p] == kEroded ? &kept[b] : nullptr;
       if (!t) continue;
       ++t->particles;
       t->mass += pts.mass[p];

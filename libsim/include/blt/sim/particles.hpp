@@ -42,7 +42,7 @@ struct Particles {
   std::vector<double> plasticWork;      // J, accumulated (energy history)
   std::vector<double> viscousWork;      // J, accumulated
   std::vector<std::uint8_t> failed;     // 1 when the failure model has triggered; kEroded: eroded, mass kept
-  std::vector<std::uint8_t> active;     // 0 once a particle has left the grid or has been eroded
+  std::vector<std::uint8_t> active;     // 0 once a particle has left the grid or erosion has removed it
   std::vector<int> material;            // index into the solver's material list
   std::vector<int> body;                // body id (projectile 0, layers 1..); separate nodal fields per body
 
