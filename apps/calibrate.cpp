@@ -119,8 +119,8 @@ void registerCalibrateCommand(CLI::App& app) {
                   "solver model: make only task I's share of the calibration's runs (prediction k belongs to task "
                   "k mod N + 1) and record them in --db, for job arrays; no report. When every task has ended, merge "
                   "their databases (blt campaign merge) and run the calibration without --task on the merged file: "
-                  "it runs nothing again. Keep the parts in one folder, so that derived material cards (cards/ "
-                  "beside the database) have the same paths in every run")
+                  "it runs nothing again. The tasks may run in other folders or on other machines: a run is known by "
+                  "the scenario's file name and text, and a derived card by its file name, not by their paths")
       ->type_name("I/N");
   cmd->add_option("--folds", s->folds, "cross-validation folds (default: leave-one-out up to 20 cases, else 10)")
       ->type_name("K");

@@ -306,6 +306,8 @@ void mergeCommand(const MergeOptions& o) {
     if (std::filesystem::exists(o.db) && std::filesystem::equivalent(part, o.db))
       throw InputError(InputLocation::flag("--db"), "the merged database is also one of the parts (" + part + ")",
                        "a --db file other than the parts");
+  if (const auto folder = std::filesystem::path(o.db).parent_path(); !folder.empty())
+    std::filesystem::create_directories(folder);
   RunDatabase db(o.db);
   nlohmann::json added = nlohmann::json::object();
   for (const auto& part : o.parts) {

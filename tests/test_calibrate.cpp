@@ -1021,8 +1021,8 @@ TEST_CASE("calibrate: the runs an earlier blt kept in runs.jsonl are copied into
   StandInSimulator never;
   options.simulator = never.simulator();
   {
-    // The cache as the earlier calibration left it: the run under its key (the scenario's absolute path, the
-    // hash of its text, the model fingerprint, the settings).
+    // The cache as an earlier calibration left it: the run under the key of builds before the portable keys (the
+    // scenario's absolute path, the hash of its text, the model fingerprint, the settings); still found.
     std::ifstream in(scenario);
     const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
     SolverModel probe(scenario, {});
@@ -1045,14 +1045,14 @@ namespace {
 
 // A solver calibration on the command line: three shots with outer-layer holes written to DIR/shots.csv, the
 // coating at 0.2 mm for 8 us (a fraction of a second a run), one effect on a grid of 2, the report in DIR/report.
-std::string threeShotCalibration(const std::string& dir, const std::string& effect) {
+std::string threeShotCalibration(const std::string& dir, const std::string& effect,
+                                 const std::string& scenario = std::string(BLT_DATA_DIR) + "/scenarios/fabric_al_original.toml") {
   fs::create_directories(dir);
   {
     std::ofstream csv(fs::path(dir) / "shots.csv");
     csv << "case,diameter_mm,velocity_km_s,layer,hole_h_mm\n05,1.2,4.03,outer,1.8\n06,1.0,4.03,outer,1.7\n"
            "07,0.8,4.03,outer,1.5\n";
   }
-  const std::string scenario = std::string(BLT_DATA_DIR) + "/scenarios/fabric_al_original.toml";
   return "calibrate --measured '" + dir + "/shots.csv' --scenario '" + scenario +
          "' --set resolution.particle_spacing=0.2mm --set resolution.cell_size=0.4mm --set run.max_time=8us --effects " +
          effect + " --grid 2 --report '" + dir + "/report'";
@@ -1081,27 +1081,33 @@ TEST_CASE("calibrate: the command line runs each simulation in a blt process of 
   fs::remove_all(dir);
 }
 
-TEST_CASE("calibrate: the command line splits a calibration's runs over tasks, and on the merged parts the calibration makes none") {
+TEST_CASE("calibrate: the command line splits a calibration's runs over tasks, made in other folders the merged parts make no run") {
   const std::string dir = tempDir("cli_tasks");
-  // strength:outer writes derived cards, whose paths are part of a run's settings: shared by the parts in one folder.
+  // As on two machines: each task's database in a folder of its own (its derived cards beside it, strength:outer
+  // writes them), the second task's scenario a copy at another path; the merged file in a third folder.
+  fs::create_directories(dir + "/elsewhere");
+  fs::copy_file(std::string(BLT_DATA_DIR) + "/scenarios/fabric_al_original.toml", dir + "/elsewhere/fabric_al_original.toml");
   const std::string command = threeShotCalibration(dir, "strength:outer");
   std::size_t partRuns = 0;
   for (int task = 1; task <= 2; ++task) {
-    const std::string part = dir + "/parts/part-" + std::to_string(task) + ".sqlite";
-    const BltRun r = runBlt(command + " --task " + std::to_string(task) + "/2 --db '" + part + "' --json");
+    const std::string part = dir + "/machine-" + std::to_string(task) + "/part-" + std::to_string(task) + ".sqlite";
+    const std::string taskCommand =
+        task == 1 ? command : threeShotCalibration(dir, "strength:outer", dir + "/elsewhere/fabric_al_original.toml");
+    const BltRun r = runBlt(taskCommand + " --task " + std::to_string(task) + "/2 --db '" + part + "' --json");
     REQUIRE_MESSAGE(r.status == 0, r.output);
     const auto doc = nlohmann::json::parse(r.output.substr(r.output.find('{')));
     // Nine predictions (three shots at the base and at strength x 0.5 and x 2), a run each: 5 for task 1, 4 for 2.
     CHECK(doc["planned_predictions"] == 9);
     CHECK(doc["predictions"] == (task == 1 ? 5 : 4));
     CHECK(doc["runs_made"] == (task == 1 ? 5 : 4));
+    CHECK(fs::exists(fs::path(part).parent_path() / "cards"));
     partRuns += campaign::RunDatabase(part).calibrationRuns().size();
   }
   CHECK(partRuns == 9);
   CHECK_FALSE(fs::exists(fs::path(dir) / "report" / "report.md"));  // a task writes no report
-  const std::string merged = dir + "/parts/all.sqlite";
-  const BltRun merge = runBlt("campaign merge '" + dir + "/parts/part-1.sqlite' '" + dir + "/parts/part-2.sqlite' --db '" +
-                              merged + "'");
+  const std::string merged = dir + "/merged/all.sqlite";
+  const BltRun merge = runBlt("campaign merge '" + dir + "/machine-1/part-1.sqlite' '" + dir +
+                              "/machine-2/part-2.sqlite' --db '" + merged + "'");
   REQUIRE_MESSAGE(merge.status == 0, merge.output);
   const BltRun whole = runBlt(command + " --db '" + merged + "'");
   REQUIRE_MESSAGE(whole.status == 0, whole.output);

@@ -449,10 +449,33 @@ std::optional<nlohmann::json> SolverModel::reusedRun(const Target& t, const std:
   return std::nullopt;
 }
 
+std::string SolverModel::portableKey(const Target& t, const std::vector<std::string>& settings) const {
+  namespace fs = std::filesystem;
+  const fs::path cards = fs::absolute(options_.cardDirectory).lexically_normal();
+  std::vector<std::string> portable;
+  for (const std::string& kv : settings) {
+    const auto eq = kv.find('=');
+    bool derivedCard = false;
+    fs::path card;
+    if (eq != std::string::npos && kv.substr(0, eq).ends_with(".material")) {
+      card = fs::absolute(kv.substr(eq + 1)).lexically_normal();
+      derivedCard = card.parent_path() == cards;
+    }
+    portable.push_back(derivedCard ? kv.substr(0, eq + 1) + "derived-card:" + card.filename().string() : kv);
+  }
+  return sim::RunCache::key(fs::path(t.path).filename().string(), t.text, portable);
+}
+
+std::string SolverModel::legacyKey(const Target& t, const std::vector<std::string>& settings) const {
+  return sim::RunCache::key(t.label, t.text, settings);
+}
+
 nlohmann::json SolverModel::runOrRecall(const Target& t, const std::vector<std::string>& settings) {
-  const std::string key = sim::RunCache::key(t.label, t.text, settings);
+  const std::string key = portableKey(t, settings);
+  std::optional<campaign::CalibrationRunRecord> found = runs_->findCalibrationRun(key);
+  if (!found) found = runs_->findCalibrationRun(legacyKey(t, settings));
   // A run without a summary crashed (or its output was lost): made again. One that went unstable has one.
-  if (auto found = runs_->findCalibrationRun(key); found && found->summary.contains("perforated")) return found->summary;
+  if (found && found->summary.contains("perforated")) return found->summary;
   const auto logRun = [&](const nlohmann::json& kept, const std::string& how) {
     if (!options_.log) return;
     std::string line = std::string(kept["perforated"].get<bool>() ? "perforated" : "stopped") + how;

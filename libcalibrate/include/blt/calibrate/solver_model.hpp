@@ -33,10 +33,11 @@
 //
 // Runs go through the campaign machinery (blt/campaign): each is made by a campaign Simulator (by default in this
 // process; the CLI runs each in a process of its own, as campaigns do, so a crash is a failed run with its signal)
-// and recorded as it ends in a run database of the campaigns' kind, keyed by the scenario file's path, the hash of
-// its text, the model fingerprint and the settings (sim::RunCache::key). A second calibration (or a resumed one)
-// with the same build reruns nothing; several calibrations, or machines, may share one file, and `blt campaign
-// merge` joins files. The completed runs of the campaigns in that file (and in reuseDatabase) serve as well.
+// and recorded as it ends in a run database of the campaigns' kind, keyed by the scenario file's name, the hash of
+// its text, the model fingerprint and the settings, derived cards by file name (sim::RunCache::key; no path of
+// the machine, so runs made in another folder or on another machine are found). A second calibration (or a
+// resumed one) with the same build reruns nothing; several calibrations, or machines, may share one file, and
+// `blt campaign merge` joins files. The completed runs of the campaigns in that file (and in reuseDatabase) serve as well.
 
 #include <functional>
 #include <map>
@@ -146,6 +147,11 @@ class SolverModel : public Model {
   // so Johnson-Cook's usual 1 1/s.
   static constexpr double kFabricReferenceRate = 1.0;
   nlohmann::json runOrRecall(const Target& t, const std::vector<std::string>& settings);
+  // A run's key that holds no path of this machine: the scenario by its file name (its text by hash), a derived
+  // card by its file name in the card directory, so that runs made elsewhere (another folder, another machine)
+  // are found. Keys made before it held the absolute paths (legacyKey); those runs are still found.
+  std::string portableKey(const Target& t, const std::vector<std::string>& settings) const;
+  std::string legacyKey(const Target& t, const std::vector<std::string>& settings) const;
   // A campaign run of reuseDatabase, as its shot and its other settings.
   struct ReusableRun {
     const Target* target;

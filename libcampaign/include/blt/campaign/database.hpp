@@ -68,8 +68,8 @@ struct RunRecord {
   std::string toolVersion, createdUtc;
 };
 
-// A run made for a calibration. Its key is the run cache's (sim::RunCache::key: the scenario's path, the hash of
-// its text, the model fingerprint, the settings), so a run is found again only by the same build.
+// A run made for a calibration. Its key is the run cache's (sim::RunCache::key: a label of the scenario, the hash
+// of its text, the model fingerprint, the settings), so a run is found again only by the same build.
 struct CalibrationRunRecord {
   std::string key;
   std::string scenario;               // the scenario file
