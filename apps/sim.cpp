@@ -4,10 +4,13 @@
 #include <sys/resource.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <iostream>
 #include <memory>
+#include <string>
+#include <vector>
 #include <omp.h>
 
 #include "blt/core/materials.hpp"
@@ -135,7 +138,10 @@ struct BenchOptions {
   int threads = 0;
   bool json = false;
   bool quick = false;
+  std::vector<std::string> cases;  // empty: every case
 };
+
+const std::vector<std::string> kBenchCases = {"3d-ugimp-musl-jc-mg", "taylor-bar-3d", "axisymmetric-jc-mg"};
 
 template <int D>
 nlohmann::json timeCase(const std::string& name, const std::string& description, Solver<D>& solver, long steps,
@@ -161,6 +167,15 @@ nlohmann::json timeCase(const std::string& name, const std::string& description,
 }
 
 void benchSim(const BenchOptions& o) {
+  std::string allowed;
+  for (const auto& name : kBenchCases) allowed += (allowed.empty() ? "" : ", ") + name;
+  for (const auto& name : o.cases)
+    if (std::find(kBenchCases.begin(), kBenchCases.end(), name) == kBenchCases.end())
+      throw InputError(InputLocation::flag("--case"), "no bench case " + name, allowed);
+  const auto selected = [&](const std::string& name) {
+    return o.cases.empty() || std::find(o.cases.begin(), o.cases.end(), name) != o.cases.end();
+  };
+  bool first = true;  // the first case run owns the peak RSS
   setThreads(o.threads);
   const MaterialLibrary lib = MaterialLibrary::load();
   const Material al2a12 = lib.get("al_2a12"), al5a06 = lib.get("al_5a06"), copper = lib.get("cu_ofhc");
@@ -179,7 +194,7 @@ void benchSim(const BenchOptions& o) {
                             .c_str());
     std::fflush(stdout);
   };
-  {
+  if (selected(kBenchCases[0])) {
     // 3D uGIMP MUSL, Johnson-Cook + Mie-Grueneisen + max principal stress: a 2A12 cylinder on a 5A06 plate
     // (seed 000 Table 3 materials), quarter model, two bodies with multi-field contact.
     PlateImpactCase c;
@@ -188,17 +203,19 @@ void benchSim(const BenchOptions& o) {
     c.plateThickness = 6e-3;
     c.velocity = 5000;
     auto solver = makePlateImpact3d(c, al2a12, al5a06);
-    report(timeCase<3>("3d-ugimp-musl-jc-mg",
+    report(timeCase<3>(kBenchCases[0],
                        "2A12 cylinder on 5A06 plate at 5 km/s, 3D quarter model, uGIMP, MUSL, JC + MG, contact",
-                       *solver, o.quick ? 5 : 20, true));
+                       *solver, o.quick ? 5 : 20, first));
+    first = false;
   }
-  {
+  if (selected(kBenchCases[1])) {
     TaylorBarCase c;  // 20 particles per diameter: about 21,000 particles in the full bar
     auto solver = makeTaylorBar3d(c, copper);
-    report(timeCase<3>("taylor-bar-3d", "OFHC copper Taylor bar, full 3D, 20 particles per diameter, 190 m/s",
-                       *solver, o.quick ? 20 : 200, false));
+    report(timeCase<3>(kBenchCases[1], "OFHC copper Taylor bar, full 3D, 20 particles per diameter, 190 m/s",
+                       *solver, o.quick ? 20 : 200, first));
+    first = false;
   }
-  {
+  if (selected(kBenchCases[2])) {
     PlateImpactCase c;
     c.spacing = 0.05e-3;
     c.plateRadius = 14e-3;
@@ -207,9 +224,9 @@ void benchSim(const BenchOptions& o) {
     c.projectileLength = 1e-3;
     c.velocity = 5000;
     auto solver = makePlateImpactAxisymmetric(c, al2a12, al5a06);
-    report(timeCase<2>("axisymmetric-jc-mg",
+    report(timeCase<2>(kBenchCases[2],
                        "2A12 cylinder on a 3 mm 5A06 plate at 5 km/s, axisymmetric, 0.05 mm spacing, contact",
-                       *solver, o.quick ? 50 : 300, false));
+                       *solver, o.quick ? 50 : 300, first));
   }
   if (o.json)
     printJson({{"threads", o.threads > 0 ? o.threads : omp_get_max_threads()}, {"cases", cases}});
@@ -307,6 +324,9 @@ void registerBenchCommand(CLI::App& app) {
       "particle_updates_per_s and memory per particle");
   sim->add_option("--threads", bo->threads, "OpenMP threads (default: all cores)");
   sim->add_flag("--quick", bo->quick, "Smaller 3D case and fewer steps (a smoke run)");
+  sim->add_option("--case", bo->cases,
+                  "Run only this case (repeatable): 3d-ugimp-musl-jc-mg, taylor-bar-3d, axisymmetric-jc-mg; default all")
+      ->type_name("NAME");
   addJsonFlag(*sim, bo->json);
   sim->callback([bo] { benchSim(*bo); });
   auto tb = std::make_shared<BenchTaylorOptions>();

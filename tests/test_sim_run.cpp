@@ -484,4 +484,19 @@ TEST_CASE("sim: bad CLI values are errors naming the flag") {
   CHECK(t.output.find("--threads") != std::string::npos);
 }
 
+TEST_CASE("sim: blt bench sim --case times only the cases named, and an unknown case names the cases there are") {
+  const BltRun r = runBlt("bench sim --quick --case axisymmetric-jc-mg --threads 1 --json");
+  REQUIRE_MESSAGE(r.status == 0, r.output);
+  const auto doc = nlohmann::json::parse(r.output);
+  REQUIRE(doc["cases"].size() == 1);
+  CHECK(doc["cases"][0]["case"] == "axisymmetric-jc-mg");
+  CHECK(doc["cases"][0]["steps"] == 50);
+  CHECK(doc["cases"][0]["particle_updates_per_s"].get<double>() > 0);
+  CHECK_FALSE(doc["cases"][0]["peak_rss_bytes_per_particle"].is_null());  // the first case run owns the peak
+  const BltRun bad = runBlt("bench sim --case 2d");
+  CHECK(bad.status == 2);
+  CHECK(bad.output.find("--case") != std::string::npos);
+  CHECK(bad.output.find("taylor-bar-3d") != std::string::npos);
+}
+
 }  // TEST_SUITE
