@@ -425,8 +425,17 @@ TEST_CASE("sim: a failed point crushed to a tiny time step is eroded, intact mat
   };
   auto failed = crushedFoam(true, o);
   const std::size_t all = failed->activeParticles();
+  // Marked, to find it again: the eroding step must not store the state it rejects (a pressure far past the
+  // Hugoniot's, and with it an energy that would stay in the energy history).
+  const std::size_t crushed = failed->particles().size() / 2;
+  failed->particles().specificEnergy[crushed] = 1234.5;
   failed->step();
   CHECK(inactiveFailed(*failed) == std::pair{1, 1});
+  for (std::size_t p = 0; p < failed->particles().size(); ++p) {
+    if (failed->particles().active[p]) continue;
+    CHECK(failed->particles().specificEnergy[p] == 1234.5);
+    CHECK(failed->particles().stress[p].norm() == 0.0);  // the state before the step: unstressed
+  }
   CHECK(failed->timeStep() >= limitStep(*failed));
   failed->step();
   CHECK(failed->activeParticles() == all - 1);

@@ -69,9 +69,10 @@ struct SolverOptions {
   // What erosion does with a point (either rule above, or a failed point turned inside out): false removes it, its
   // mass and momentum with it; true keeps it as a stress-free mass point (failed = kEroded) that still carries its
   // mass and momentum to the grid, so debris that erosion would delete still loads the layers behind, as in a
-  // code without erosion (seed 000's MPM). Its last velocity is kept either way, so the energy history does not
-  // change at the moment of erosion. On seed 000's target it hardly matters: a 3D run at the seed's 0.1 mm
-  // (0.975 mm, 6 km/s, 45 deg, 24 us) eroded 195 points, 0.1 mg of MLI, and kept them to the same verdict.
+  // code without erosion (seed 000's MPM). Its last velocity, and the state it had before the step that eroded it,
+  // are kept either way, so the energy history does not change at the moment of erosion. On seed 000's target it
+  // hardly matters: a 3D run at the seed's 0.1 mm (0.975 mm, 6 km/s, 45 deg, 24 us) eroded 195 points, 0.1 mg of
+  // MLI, and kept them to the same verdict.
   bool keepErodedMass = false;
   bool axisymmetric = true;  // D = 2 only; false gives plane strain
   // OpenMP threads; 0 keeps the OpenMP default (OMP_NUM_THREADS or all cores). Runs below 4000 particles stay
