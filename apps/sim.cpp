@@ -324,8 +324,9 @@ void registerBenchCommand(CLI::App& app) {
       "particle_updates_per_s and memory per particle");
   sim->add_option("--threads", bo->threads, "OpenMP threads (default: all cores)");
   sim->add_flag("--quick", bo->quick, "Smaller 3D case and fewer steps (a smoke run)");
-  sim->add_option("--case", bo->cases,
-                  "Run only this case (repeatable): 3d-ugimp-musl-jc-mg, taylor-bar-3d, axisymmetric-jc-mg; default all")
+  std::string caseNames;
+  for (const auto& name : kBenchCases) caseNames += (caseNames.empty() ? "" : ", ") + name;
+  sim->add_option("--case", bo->cases, "Run only this case (repeatable): " + caseNames + "; default all")
       ->type_name("NAME");
   addJsonFlag(*sim, bo->json);
   sim->callback([bo] { benchSim(*bo); });

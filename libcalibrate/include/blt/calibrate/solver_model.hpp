@@ -37,7 +37,8 @@
 // its text, the model fingerprint and the settings, derived cards by file name (sim::RunCache::key; no path of
 // the machine, so runs made in another folder or on another machine are found). A second calibration (or a
 // resumed one) with the same build reruns nothing; several calibrations, or machines, may share one file, and
-// `blt campaign merge` joins files. The completed runs of the campaigns in that file (and in reuseDatabase) serve as well.
+// `blt campaign merge` joins files. The completed runs of the campaigns in that file (and in reuseDatabase) serve
+// as well.
 
 #include <functional>
 #include <map>
@@ -122,7 +123,7 @@ class SolverModel : public Model {
   // One scenario the shots are run on, with what the run cache and the effects need of it.
   struct Target {
     std::string path;
-    std::string label, text;  // the scenario's absolute path and its text, for the run cache's keys
+    std::string label, text;  // the scenario's absolute path (case lookup, earlier builds' keys) and its text
     sim::ImpactScenario base;
     std::vector<std::size_t> rateHardened;  // the layers rate_hardening acts on (bilinear flow curves)
   };
