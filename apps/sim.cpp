@@ -143,6 +143,12 @@ struct BenchOptions {
 
 const std::vector<std::string> kBenchCases = {"3d-ugimp-musl-jc-mg", "taylor-bar-3d", "axisymmetric-jc-mg"};
 
+std::string benchCaseNames() {
+  std::string names;
+  for (const auto& name : kBenchCases) names += (names.empty() ? "" : ", ") + name;
+  return names;
+}
+
 template <int D>
 nlohmann::json timeCase(const std::string& name, const std::string& description, Solver<D>& solver, long steps,
                         bool first) {
@@ -167,11 +173,9 @@ nlohmann::json timeCase(const std::string& name, const std::string& description,
 }
 
 void benchSim(const BenchOptions& o) {
-  std::string allowed;
-  for (const auto& name : kBenchCases) allowed += (allowed.empty() ? "" : ", ") + name;
   for (const auto& name : o.cases)
     if (std::find(kBenchCases.begin(), kBenchCases.end(), name) == kBenchCases.end())
-      throw InputError(InputLocation::flag("--case"), "no bench case " + name, allowed);
+      throw InputError(InputLocation::flag("--case"), "no bench case " + name, benchCaseNames());
   const auto selected = [&](const std::string& name) {
     return o.cases.empty() || std::find(o.cases.begin(), o.cases.end(), name) != o.cases.end();
   };
@@ -324,9 +328,7 @@ void registerBenchCommand(CLI::App& app) {
       "particle_updates_per_s and memory per particle");
   sim->add_option("--threads", bo->threads, "OpenMP threads (default: all cores)");
   sim->add_flag("--quick", bo->quick, "Smaller 3D case and fewer steps (a smoke run)");
-  std::string caseNames;
-  for (const auto& name : kBenchCases) caseNames += (caseNames.empty() ? "" : ", ") + name;
-  sim->add_option("--case", bo->cases, "Run only this case (repeatable): " + caseNames + "; default all")
+  sim->add_option("--case", bo->cases, "Run only this case (repeatable): " + benchCaseNames() + "; default all")
       ->type_name("NAME");
   addJsonFlag(*sim, bo->json);
   sim->callback([bo] { benchSim(*bo); });
