@@ -18,6 +18,7 @@
 
 #include "blt/core/clock.hpp"
 #include "blt/core/error.hpp"
+#include "blt/core/sqlite.hpp"
 
 namespace blt::ble {
 
@@ -25,110 +26,6 @@ namespace {
 
 // PRAGMA application_id of a blt BLE store ("BLTB"), so an SQLite file of another program is not taken for one.
 constexpr int kApplicationId = 0x424C5442;
-
-// ---- SQLite plumbing -------------------------------------------------------------------------------------------
-
-[[noreturn]] void throwSqlite(sqlite3* db, const std::string& path, const std::string& doing) {
-  throw InputError(InputLocation::file(path), "SQLite error while " + doing + ": " + sqlite3_errmsg(db));
-}
-
-void exec(sqlite3* db, const std::string& path, const char* sql, const std::string& doing) {
-  if (sqlite3_exec(db, sql, nullptr, nullptr, nullptr) != SQLITE_OK) throwSqlite(db, path, doing);
-}
-
-// A prepared statement that finalizes itself. Parameters are numbered from 1, columns from 0, as in SQLite.
-class Statement {
- public:
-  Statement(sqlite3* db, const std::string& path, std::string_view sql, std::string doing)
-      : db_(db), path_(path), doing_(std::move(doing)) {
-    if (sqlite3_prepare_v2(db_, sql.data(), static_cast<int>(sql.size()), &stmt_, nullptr) != SQLITE_OK)
-      throwSqlite(db_, path_, doing_);
-  }
-  ~Statement() { sqlite3_finalize(stmt_); }
-  Statement(const Statement&) = delete;
-  Statement& operator=(const Statement&) = delete;
-
-  Statement& bind(int i, double v) { return check(sqlite3_bind_double(stmt_, i, v)); }
-  Statement& bind(int i, std::int64_t v) { return check(sqlite3_bind_int64(stmt_, i, v)); }
-  Statement& bind(int i, int v) { return check(sqlite3_bind_int(stmt_, i, v)); }
-  Statement& bind(int i, bool v) { return check(sqlite3_bind_int(stmt_, i, v ? 1 : 0)); }
-  Statement& bind(int i, const std::string& v) {
-    return check(sqlite3_bind_text(stmt_, i, v.data(), static_cast<int>(v.size()), SQLITE_TRANSIENT));
-  }
-  Statement& bind(int i, const std::optional<double>& v) {
-    return v ? bind(i, *v) : check(sqlite3_bind_null(stmt_, i));
-  }
-  Statement& bindBlob(int i, const std::string& bytes) {
-    return check(sqlite3_bind_blob(stmt_, i, bytes.data(), static_cast<int>(bytes.size()), SQLITE_TRANSIENT));
-  }
-
-  // Advances; true while there is a row to read.
-  bool step() {
-    const int rc = sqlite3_step(stmt_);
-    if (rc == SQLITE_ROW) return true;
-    if (rc == SQLITE_DONE) return false;
-    throwSqlite(db_, path_, doing_);
-  }
-  void run() {
-    while (step()) {
-    }
-  }
-  void reset() {
-    sqlite3_reset(stmt_);
-    sqlite3_clear_bindings(stmt_);
-  }
-
-  bool isNull(int c) const { return sqlite3_column_type(stmt_, c) == SQLITE_NULL; }
-  double real(int c) const { return sqlite3_column_double(stmt_, c); }
-  std::int64_t integer(int c) const { return sqlite3_column_int64(stmt_, c); }
-  std::string text(int c) const {
-    const auto* p = sqlite3_column_text(stmt_, c);
-    return p ? std::string(reinterpret_cast<const char*>(p), static_cast<size_t>(sqlite3_column_bytes(stmt_, c)))
-             : std::string();
-  }
-  std::string blob(int c) const {
-    const auto* p = static_cast<const char*>(sqlite3_column_blob(stmt_, c));
-    return p ? std::string(p, static_cast<size_t>(sqlite3_column_bytes(stmt_, c))) : std::string();
-  }
-
- private:
-  Statement& check(int rc) {
-    if (rc != SQLITE_OK) throwSqlite(db_, path_, doing_);
-    return *this;
-  }
-  sqlite3* db_;
-  sqlite3_stmt* stmt_ = nullptr;
-  const std::string& path_;
-  std::string doing_;
-};
-
-// BEGIN IMMEDIATE takes the write lock up front, so a transaction never fails halfway for want of it. Without a
-// commit() the destructor rolls back, which is how every exception leaves the file as it was.
-class Transaction {
- public:
-  Transaction(sqlite3* db, const std::string& path) : db_(db), path_(path) {
-    exec(db_, path_, "BEGIN IMMEDIATE", "starting a transaction");
-  }
-  ~Transaction() {
-    if (!committed_) sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
-  }
-  Transaction(const Transaction&) = delete;
-  Transaction& operator=(const Transaction&) = delete;
-  void commit() {
-    exec(db_, path_, "COMMIT", "committing");
-    committed_ = true;
-  }
-
- private:
-  sqlite3* db_;
-  const std::string& path_;
-  bool committed_ = false;
-};
-
-int pragmaInt(sqlite3* db, const std::string& path, const char* name) {
-  Statement s(db, path, std::string("PRAGMA ") + name, "reading PRAGMA " + std::string(name));
-  return s.step() ? static_cast<int>(s.integer(0)) : 0;
-}
 
 // ---- Schema and migrations -------------------------------------------------------------------------------------
 
@@ -188,7 +85,7 @@ using MigrationStep = void (*)(sqlite3* db, const std::string& path);
 
 // Version 0 is the pre-release layout: the same three tables, no cross-validated accuracy and no application id.
 void migrate0to1(sqlite3* db, const std::string& path) {
-  exec(db, path, "ALTER TABLE fits ADD COLUMN cv_accuracy REAL", "adding fits.cv_accuracy (schema 0 -> 1)");
+  sql::exec(db, path, "ALTER TABLE fits ADD COLUMN cv_accuracy REAL", "adding fits.cv_accuracy (schema 0 -> 1)");
 }
 
 constexpr MigrationStep kMigrations[] = {migrate0to1};
@@ -196,13 +93,13 @@ static_assert(static_cast<int>(std::size(kMigrations)) == BleStore::kSchemaVersi
 
 void setVersion(sqlite3* db, const std::string& path, int version) {
   // PRAGMAs take no bound parameters; both numbers are constants of this file.
-  const std::string sql = "PRAGMA user_version = " + std::to_string(version) +
-                          "; PRAGMA application_id = " + std::to_string(kApplicationId) + ";";
-  exec(db, path, sql.c_str(), "setting the schema version");
+  const std::string pragmas = "PRAGMA user_version = " + std::to_string(version) +
+                              "; PRAGMA application_id = " + std::to_string(kApplicationId) + ";";
+  sql::exec(db, path, pragmas, "setting the schema version");
 }
 
 std::vector<std::string> tableNames(sqlite3* db, const std::string& path) {
-  Statement s(db, path, "SELECT name FROM sqlite_master WHERE type = 'table' AND name NOT LIKE 'sqlite_%' ORDER BY name",
+  sql::Statement s(db, path, "SELECT name FROM sqlite_master WHERE type = 'table' AND name NOT LIKE 'sqlite_%' ORDER BY name",
               "listing tables");
   std::vector<std::string> names;
   while (s.step()) names.push_back(s.text(0));
@@ -223,8 +120,8 @@ bool isLegacyLayout(const std::vector<std::string>& tables) {
 // Refuses a file that is not a store this blt can read; true when it needs creating or migrating.
 bool needsSchemaWork(sqlite3* db, const std::string& path) {
   const std::string notAStore = "an SQLite file written by blt (a BLE store), or the name of a new file";
-  const int version = pragmaInt(db, path, "user_version");
-  const int appId = pragmaInt(db, path, "application_id");
+  const int version = sql::pragmaInt(db, path, "user_version");
+  const int appId = sql::pragmaInt(db, path, "application_id");
   if (appId != 0 && appId != kApplicationId)
     throw InputError(InputLocation::file(path), "is an SQLite database of another program, not a blt BLE store",
                      notAStore);
@@ -251,12 +148,12 @@ bool needsSchemaWork(sqlite3* db, const std::string& path) {
 // changes nothing; a file already at the current version is only read, so opening a store to read it takes no lock.
 void prepareSchema(sqlite3* db, const std::string& path) {
   if (!needsSchemaWork(db, path)) return;
-  Transaction tx(db, path);
+  sql::WriteTransaction tx(db, path);
   // Checked again under the write lock: another blt may have created or migrated the file meanwhile.
   if (!needsSchemaWork(db, path)) return;
-  const int version = pragmaInt(db, path, "user_version");
+  const int version = sql::pragmaInt(db, path, "user_version");
   if (version == 0 && tableNames(db, path).empty()) {
-    exec(db, path, kSchemaV1, "creating the store schema");
+    sql::exec(db, path, kSchemaV1, "creating the store schema");
   } else {
     for (int v = version; v < BleStore::kSchemaVersion; ++v) kMigrations[v](db, path);
   }
@@ -403,7 +300,7 @@ void requireNotNaN(double v, const std::string& path, const std::string& what) {
 }
 
 std::string fitsPresent(sqlite3* db, const std::string& path) {
-  Statement s(db, path, "SELECT name FROM fits ORDER BY name", "listing fits");
+  sql::Statement s(db, path, "SELECT name FROM fits ORDER BY name", "listing fits");
   std::vector<std::string> names;
   while (s.step()) names.push_back(s.text(0));
   return names.empty() ? "none; the store holds no fits yet" : "one of: " + joined(names);
@@ -427,7 +324,7 @@ BleStore::BleStore(const std::string& path) : path_(path) {
       throw InputError(InputLocation::file(path),
                        std::string("is not a blt BLE store (SQLite: ") + sqlite3_errmsg(db_) + ")",
                        "an SQLite file written by blt (a BLE store), or the name of a new file");
-    exec(db_, path_, "PRAGMA foreign_keys = ON", "enabling foreign keys");
+    sql::exec(db_, path_, "PRAGMA foreign_keys = ON", "enabling foreign keys");
     prepareSchema(db_, path_);
   } catch (...) {
     sqlite3_close_v2(db_);
@@ -438,10 +335,10 @@ BleStore::BleStore(const std::string& path) : path_(path) {
 
 BleStore::~BleStore() { sqlite3_close_v2(db_); }
 
-int BleStore::schemaVersion() const { return pragmaInt(db_, path_, "user_version"); }
+int BleStore::schemaVersion() const { return sql::pragmaInt(db_, path_, "user_version"); }
 
 bool BleStore::hasFit(const std::string& name) const {
-  Statement s(db_, path_, "SELECT 1 FROM fits WHERE name = ?1", "looking up a fit");
+  sql::Statement s(db_, path_, "SELECT 1 FROM fits WHERE name = ?1", "looking up a fit");
   s.bind(1, name);
   return s.step();
 }
@@ -456,19 +353,19 @@ void BleStore::saveFit(const StoredFit& fit, bool replace) {
                      "the hash of the fit's own points (or none)");
   const std::string created = fit.createdUtc.empty() ? nowUtcIso8601() : fit.createdUtc;
 
-  Transaction tx(db_, path_);
+  sql::WriteTransaction tx(db_, path_);
   std::optional<std::int64_t> oldDataSet;
   {
-    Statement s(db_, path_, "SELECT data_set_id FROM fits WHERE name = ?1", "looking up a fit");
+    sql::Statement s(db_, path_, "SELECT data_set_id FROM fits WHERE name = ?1", "looking up a fit");
     s.bind(1, fit.name);
     if (s.step()) oldDataSet = s.integer(0);
   }
   if (oldDataSet) {
     if (!replace)
       throw InputError(InputLocation::file(path_), "fit '" + fit.name + "' exists; use --replace to overwrite");
-    Statement del(db_, path_, "DELETE FROM fits WHERE name = ?1", "removing the fit being replaced");
+    sql::Statement del(db_, path_, "DELETE FROM fits WHERE name = ?1", "removing the fit being replaced");
     del.bind(1, fit.name).run();
-    Statement orphan(db_, path_,
+    sql::Statement orphan(db_, path_,
                      "DELETE FROM data_sets WHERE id = ?1 AND NOT EXISTS (SELECT 1 FROM fits WHERE data_set_id = ?1)",
                      "removing the replaced fit's data set");
     orphan.bind(1, *oldDataSet).run();  // its points go with it (ON DELETE CASCADE)
@@ -476,14 +373,14 @@ void BleStore::saveFit(const StoredFit& fit, bool replace) {
 
   std::int64_t dataSetId = 0;
   {
-    Statement s(db_, path_,
+    sql::Statement s(db_, path_,
                 "INSERT INTO data_sets (origin, hash, point_count, created_utc) VALUES (?1, ?2, ?3, ?4)",
                 "saving the data set");
     s.bind(1, fit.dataOrigin).bind(2, hash).bind(3, static_cast<std::int64_t>(fit.points.size())).bind(4, created).run();
     dataSetId = sqlite3_last_insert_rowid(db_);
   }
   {
-    Statement s(db_, path_,
+    sql::Statement s(db_, path_,
                 "INSERT INTO points (data_set_id, idx, diameter_m, velocity_m_s, angle_rad, perforated, "
                 "projectile_density_kg_m3, source, origin) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9)",
                 "saving the points");
@@ -508,7 +405,7 @@ void BleStore::saveFit(const StoredFit& fit, bool replace) {
   requireNotNaN(r.scatter, path_, "fit '" + fit.name + "': scatter");
   requireNotNaN(r.meanSquareError, path_, "fit '" + fit.name + "': mean square error");
   if (r.crossValidatedAccuracy) requireNotNaN(*r.crossValidatedAccuracy, path_, "fit '" + fit.name + "': cv accuracy");
-  Statement s(db_, path_,
+  sql::Statement s(db_, path_,
               "INSERT INTO fits (name, family, method, data_set_id, vl_m_s, vh_m_s, cl, ch, sl, sh, x, xh, covariance, "
               "covariance_available, covariance_note, scatter, mse_m2, misclassified, point_count, cv_accuracy, "
               "options, data_hash, tool_version, created_utc) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, "
@@ -525,7 +422,7 @@ void BleStore::saveFit(const StoredFit& fit, bool replace) {
 }
 
 StoredFit BleStore::loadFit(const std::string& name) const {
-  Statement s(db_, path_,
+  sql::Statement s(db_, path_,
               "SELECT f.family, f.method, f.vl_m_s, f.vh_m_s, f.cl, f.ch, f.sl, f.sh, f.x, f.xh, f.covariance, "
               "f.covariance_available, f.covariance_note, f.scatter, f.mse_m2, f.misclassified, f.point_count, "
               "f.cv_accuracy, f.options, f.data_hash, f.tool_version, f.created_utc, d.origin, d.id "
@@ -561,7 +458,7 @@ StoredFit BleStore::loadFit(const std::string& name) const {
   fit.dataOrigin = s.text(22);
   const std::int64_t dataSetId = s.integer(23);
 
-  Statement p(db_, path_,
+  sql::Statement p(db_, path_,
               "SELECT diameter_m, velocity_m_s, angle_rad, perforated, projectile_density_kg_m3, source, origin "
               "FROM points WHERE data_set_id = ?1 ORDER BY idx",
               "loading the fit's points");
@@ -581,7 +478,7 @@ StoredFit BleStore::loadFit(const std::string& name) const {
 }
 
 std::vector<FitSummary> BleStore::listFits() const {
-  Statement s(db_, path_,
+  sql::Statement s(db_, path_,
               "SELECT name, family, method, created_utc, data_hash, point_count, mse_m2, misclassified "
               "FROM fits ORDER BY name",
               "listing fits");

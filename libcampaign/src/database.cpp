@@ -11,7 +11,7 @@
 
 #include "blt/core/clock.hpp"
 #include "blt/core/units.hpp"
-#include "sqlite.hpp"
+#include "blt/core/sqlite.hpp"
 
 namespace blt::campaign {
 
@@ -94,13 +94,8 @@ CREATE TABLE IF NOT EXISTS calibration_runs (
 );
 )sql";
 
-int pragma(sqlite3* db, const std::string& file, const char* name) {
-  sql::Query q(db, file, std::string("PRAGMA ") + name, std::string("reading PRAGMA ") + name);
-  return q.step() ? static_cast<int>(q.integer(0)) : 0;
-}
-
 int tableCount(sqlite3* db, const std::string& file) {
-  sql::Query q(db, file, "SELECT count(*) FROM sqlite_master WHERE type = 'table'", "listing tables");
+  sql::Statement q(db, file, "SELECT count(*) FROM sqlite_master WHERE type = 'table'", "listing tables");
   return q.step() ? static_cast<int>(q.integer(0)) : 0;
 }
 
@@ -109,8 +104,8 @@ enum class SchemaWork { none, create, upgrade };
 // Throws for a file this blt cannot use; otherwise what its schema needs.
 SchemaWork schemaWork(sqlite3* db, const std::string& file) {
   const std::string allowed = "a run database written by blt campaign run or blt calibrate, or the name of a new file";
-  const int version = pragma(db, file, "user_version");
-  const int app = pragma(db, file, "application_id");
+  const int version = sql::pragmaInt(db, file, "user_version");
+  const int app = sql::pragmaInt(db, file, "application_id");
   if (app != 0 && app != kApplicationId)
     throw InputError(InputLocation::file(file), "is an SQLite database of another kind, not a blt run database", allowed);
   if (version > RunDatabase::kSchemaVersion)
@@ -154,7 +149,7 @@ constexpr const char* kPointColumns =
     "idx, label, velocity_m_s, diameter_m, angle_rad, bracket_lower, bracket_upper, bracket_origin, state, "
     "largest_safe, smallest_perforating, run_count, message";
 
-PointRecord readPoint(const sql::Query& q) {
+PointRecord readPoint(const sql::Statement& q) {
   PointRecord p;
   p.index = static_cast<int>(q.integer(0));
   p.label = q.text(1);
@@ -176,7 +171,7 @@ constexpr const char* kRunColumns =
     "id, point_idx, value, attempt, settings, scenario_hash, state, perforated, settled, diameter_m, velocity_m_s, "
     "angle_rad, residual_velocity_m_s, reason, measurements, wall_time_s, tool_version, created_utc";
 
-RunRecord readRun(const sql::Query& q) {
+RunRecord readRun(const sql::Statement& q) {
   RunRecord r;
   r.id = q.integer(0);
   r.point = static_cast<int>(q.integer(1));
@@ -199,7 +194,7 @@ RunRecord readRun(const sql::Query& q) {
   return r;
 }
 
-CampaignRecord readCampaign(const sql::Query& q) {
+CampaignRecord readCampaign(const sql::Statement& q) {
   CampaignRecord c;
   c.id = q.integer(0);
   c.name = q.text(1);
@@ -217,7 +212,7 @@ constexpr const char* kCampaignColumns =
 
 // Inserts a run in a transaction the caller holds; false when its hash was recorded already.
 bool insertRun(sqlite3* db, const std::string& file, std::int64_t campaign, const RunRecord& r) {
-  sql::Query q(db, file,
+  sql::Statement q(db, file,
                "INSERT INTO runs (campaign_id, point_idx, value, attempt, settings, scenario_hash, state, perforated, "
                "settled, diameter_m, velocity_m_s, angle_rad, residual_velocity_m_s, reason, measurements, wall_time_s, "
                "tool_version, created_utc) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, "
@@ -236,7 +231,7 @@ bool insertRun(sqlite3* db, const std::string& file, std::int64_t campaign, cons
 constexpr const char* kCalibrationRunColumns =
     "key, scenario, settings, scenario_hash, state, reason, summary, wall_time_s, tool_version, created_utc";
 
-CalibrationRunRecord readCalibrationRun(const sql::Query& q) {
+CalibrationRunRecord readCalibrationRun(const sql::Statement& q) {
   CalibrationRunRecord r;
   r.key = q.text(0);
   r.scenario = q.text(1);
@@ -254,7 +249,7 @@ CalibrationRunRecord readCalibrationRun(const sql::Query& q) {
 // Inserts a calibration run in a transaction the caller holds: a completed run replaces a failed one of its key,
 // anything else recorded first stays. False when nothing changed.
 bool insertCalibrationRun(sqlite3* db, const std::string& file, const CalibrationRunRecord& r) {
-  sql::Query q(db, file,
+  sql::Statement q(db, file,
                std::string("INSERT INTO calibration_runs (") + kCalibrationRunColumns +
                    ") VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10) ON CONFLICT (key) DO UPDATE SET "
                    "scenario = excluded.scenario, settings = excluded.settings, scenario_hash = excluded.scenario_hash, "
@@ -271,7 +266,7 @@ bool insertCalibrationRun(sqlite3* db, const std::string& file, const Calibratio
 }
 
 void writePoint(sqlite3* db, const std::string& file, std::int64_t campaign, const PointRecord& p, bool replace) {
-  sql::Query q(db, file,
+  sql::Statement q(db, file,
                std::string(replace ? "INSERT OR REPLACE" : "INSERT OR IGNORE") +
                    " INTO points (campaign_id, " + kPointColumns +
                    ", updated_utc) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15)",
@@ -283,7 +278,7 @@ void writePoint(sqlite3* db, const std::string& file, std::int64_t campaign, con
 }
 
 std::optional<CampaignRecord> campaignByName(sqlite3* db, const std::string& file, const std::string& name) {
-  sql::Query q(db, file, std::string("SELECT ") + kCampaignColumns + " FROM campaigns WHERE name = ?1",
+  sql::Statement q(db, file, std::string("SELECT ") + kCampaignColumns + " FROM campaigns WHERE name = ?1",
                "looking up a campaign");
   q.bind(1, name);
   if (!q.step()) return std::nullopt;
@@ -334,7 +329,7 @@ RunDatabase::RunDatabase(const std::string& path) : path_(path) {
       tx.commit();
     }
     // WAL persists in the file; readers then never block the writer. FULL: a commit is on disk when it returns.
-    sql::Query wal(db_, path_, "PRAGMA journal_mode = WAL", "switching to WAL");
+    sql::Statement wal(db_, path_, "PRAGMA journal_mode = WAL", "switching to WAL");
     wal.run();
     sql::exec(db_, path_, "PRAGMA synchronous = FULL; PRAGMA foreign_keys = ON", "setting PRAGMAs");
   } catch (...) {
@@ -366,7 +361,7 @@ std::int64_t RunDatabase::ensureCampaign(const Campaign& c, double projectileDen
                            " with this file, or a file per task");
     return existing->id;
   }
-  sql::Query q(db_, path_,
+  sql::Statement q(db_, path_,
                "INSERT INTO campaigns (name, definition, definition_hash, variable, projectile_density_kg_m3, task_index, "
                "task_count, created_utc) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8)",
                "recording the campaign");
@@ -385,7 +380,7 @@ std::optional<CampaignRecord> RunDatabase::findCampaign(const std::string& name)
 
 std::vector<CampaignRecord> RunDatabase::campaigns() const {
   std::lock_guard lock(mutex_);
-  sql::Query q(db_, path_, std::string("SELECT ") + kCampaignColumns + " FROM campaigns ORDER BY id", "listing campaigns");
+  sql::Statement q(db_, path_, std::string("SELECT ") + kCampaignColumns + " FROM campaigns ORDER BY id", "listing campaigns");
   std::vector<CampaignRecord> list;
   while (q.step()) list.push_back(readCampaign(q));
   return list;
@@ -395,7 +390,7 @@ PointRecord RunDatabase::ensurePoint(std::int64_t campaign, const PointRecord& p
   std::lock_guard lock(mutex_);
   sql::WriteTransaction tx(db_, path_);
   writePoint(db_, path_, campaign, p, false);
-  sql::Query q(db_, path_, std::string("SELECT ") + kPointColumns + " FROM points WHERE campaign_id = ?1 AND idx = ?2",
+  sql::Statement q(db_, path_, std::string("SELECT ") + kPointColumns + " FROM points WHERE campaign_id = ?1 AND idx = ?2",
                "reading a point");
   q.bind(1, campaign).bind(2, p.index);
   q.step();
@@ -413,7 +408,7 @@ void RunDatabase::updatePoint(std::int64_t campaign, const PointRecord& p) {
 
 std::vector<PointRecord> RunDatabase::points(std::int64_t campaign) const {
   std::lock_guard lock(mutex_);
-  sql::Query q(db_, path_, std::string("SELECT ") + kPointColumns + " FROM points WHERE campaign_id = ?1 ORDER BY idx",
+  sql::Statement q(db_, path_, std::string("SELECT ") + kPointColumns + " FROM points WHERE campaign_id = ?1 ORDER BY idx",
                "listing points");
   q.bind(1, campaign);
   std::vector<PointRecord> list;
@@ -423,7 +418,7 @@ std::vector<PointRecord> RunDatabase::points(std::int64_t campaign) const {
 
 std::optional<RunRecord> RunDatabase::findRun(std::int64_t campaign, const std::string& scenarioHash) const {
   std::lock_guard lock(mutex_);
-  sql::Query q(db_, path_,
+  sql::Statement q(db_, path_,
                std::string("SELECT ") + kRunColumns + " FROM runs WHERE campaign_id = ?1 AND scenario_hash = ?2",
                "looking up a run");
   q.bind(1, campaign).bind(2, scenarioHash);
@@ -443,7 +438,7 @@ RunRecord RunDatabase::recordRun(std::int64_t campaign, const RunRecord& r) {
 
 std::vector<RunRecord> RunDatabase::runs(std::int64_t campaign) const {
   std::lock_guard lock(mutex_);
-  sql::Query q(db_, path_, std::string("SELECT ") + kRunColumns + " FROM runs WHERE campaign_id = ?1 ORDER BY id",
+  sql::Statement q(db_, path_, std::string("SELECT ") + kRunColumns + " FROM runs WHERE campaign_id = ?1 ORDER BY id",
                "listing runs");
   q.bind(1, campaign);
   std::vector<RunRecord> list;
@@ -453,7 +448,7 @@ std::vector<RunRecord> RunDatabase::runs(std::int64_t campaign) const {
 
 std::optional<CalibrationRunRecord> RunDatabase::findCalibrationRun(const std::string& key) const {
   std::lock_guard lock(mutex_);
-  sql::Query q(db_, path_, std::string("SELECT ") + kCalibrationRunColumns + " FROM calibration_runs WHERE key = ?1",
+  sql::Statement q(db_, path_, std::string("SELECT ") + kCalibrationRunColumns + " FROM calibration_runs WHERE key = ?1",
                "looking up a calibration run");
   q.bind(1, key);
   if (!q.step()) return std::nullopt;
@@ -472,7 +467,7 @@ CalibrationRunRecord RunDatabase::recordCalibrationRun(const CalibrationRunRecor
 
 std::vector<CalibrationRunRecord> RunDatabase::calibrationRuns() const {
   std::lock_guard lock(mutex_);
-  sql::Query q(db_, path_, std::string("SELECT ") + kCalibrationRunColumns + " FROM calibration_runs ORDER BY rowid",
+  sql::Statement q(db_, path_, std::string("SELECT ") + kCalibrationRunColumns + " FROM calibration_runs ORDER BY rowid",
                "listing calibration runs");
   std::vector<CalibrationRunRecord> list;
   while (q.step()) list.push_back(readCalibrationRun(q));
@@ -498,14 +493,14 @@ int RunDatabase::mergeFrom(const std::string& otherPath) {
       // A task's part with another part merged in is no longer that task's: it holds shares of several, and
       // `campaign run` without --task finishes whatever is still missing.
       if (mine->taskIndex != c.taskIndex || mine->taskCount != c.taskCount) {
-        sql::Query q(db_, path_, "UPDATE campaigns SET task_index = 1, task_count = 1 WHERE id = ?1",
+        sql::Statement q(db_, path_, "UPDATE campaigns SET task_index = 1, task_count = 1 WHERE id = ?1",
                      "relabelling the merged campaign");
         q.bind(1, id);
         q.run();
       }
     } else {
       // The merged file holds every task's points: it is the whole campaign (1/1).
-      sql::Query q(db_, path_,
+      sql::Statement q(db_, path_,
                    "INSERT INTO campaigns (name, definition, definition_hash, variable, projectile_density_kg_m3, "
                    "task_index, task_count, created_utc) VALUES (?1, ?2, ?3, ?4, ?5, 1, 1, ?6)",
                    "merging a campaign");
@@ -516,7 +511,7 @@ int RunDatabase::mergeFrom(const std::string& otherPath) {
     }
     std::map<int, PointRecord> mine;
     {
-      sql::Query q(db_, path_, std::string("SELECT ") + kPointColumns + " FROM points WHERE campaign_id = ?1",
+      sql::Statement q(db_, path_, std::string("SELECT ") + kPointColumns + " FROM points WHERE campaign_id = ?1",
                    "reading points to merge into");
       q.bind(1, id);
       while (q.step()) {
@@ -541,7 +536,7 @@ int RunDatabase::mergeFrom(const std::string& otherPath) {
 
 std::string RunDatabase::integrityCheck() const {
   std::lock_guard lock(mutex_);
-  sql::Query q(db_, path_, "PRAGMA integrity_check", "checking integrity");
+  sql::Statement q(db_, path_, "PRAGMA integrity_check", "checking integrity");
   std::string result;
   while (q.step()) result += (result.empty() ? "" : "; ") + q.text(0);
   return result;
