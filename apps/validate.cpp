@@ -475,7 +475,8 @@ void Report::table6() {
 }
 
 void Report::table7() {
-  // 3D half models: at the seed's 0.1 mm a run takes about 8 min here, so this section runs at 0.2 mm (and says so).
+  // 3D half models: at the seed's 0.1 mm a run takes 20 to 70 min on 2 cores, so this section runs at 0.2 mm (and
+  // says so). The 0.1 mm runs made one at a time are in docs/validation/table7.md.
   criticalDiameters({"table7",
                      "Seed 000 Table 7: critical diameters at 45 and 60 deg (3D half model at 0.2 mm spacing, twice the "
                      "seed's; end time 12 us / cos^2 of the angle; target: within 15 %)",
