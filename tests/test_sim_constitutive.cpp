@@ -128,8 +128,14 @@ TEST_CASE("JohnsonCookStrength: 2A12 card against the formula, melt and low rate
   CHECK(jc.yieldStress(ep, rate, T) == relApprox(byHand, 1e-12));
   CHECK(jc.homologousTemperature(T) == relApprox((T - Tr) / (Tm - Tr), 1e-12));
   // d sigma / d ep = B n ep^(n-1) times the rate and thermal factors.
-  CHECK(jc.hardening(ep, rate, T) == relApprox(B * n * std::pow(ep, n - 1) * (1 + C * std::log(rate)) *
-                                                   (1 - (T - Tr) / (Tm - Tr)), 1e-12));
+  const StrengthModel::FlowStress fs = jc.flowStress(ep, rate, T);
+  CHECK(fs.value == jc.yieldStress(ep, rate, T));
+  CHECK(fs.dPlasticStrain == relApprox(B * n * std::pow(ep, n - 1) * (1 + C * std::log(rate)) *
+                                           (1 - (T - Tr) / (Tm - Tr)), 1e-12));
+  // d sigma / d rate = (A + B ep^n) C / rate times the thermal factor.
+  CHECK(fs.dRate == relApprox((A + B * std::pow(ep, n)) * C / rate * (1 - (T - Tr) / (Tm - Tr)), 1e-12));
+  // Below the reference rate the rate term is flat.
+  CHECK(jc.flowStress(ep, 0.5, T).dRate == 0.0);
   // At and above melting: no strength.
   CHECK(jc.yieldStress(ep, rate, Tm) == 0.0);
   CHECK(jc.yieldStress(ep, rate, 1500.0) == 0.0);
@@ -148,6 +154,9 @@ TEST_CASE("JohnsonCookStrength: 2A12 card against the formula, melt and low rate
   CHECK(q.johnsonCook->yieldStress(0.05, 10.0, 500.0) == relApprox(qHand, 1e-12));
   // The elastic trial's zero rate and room temperature: (1 + 0)^C = 1 and T* = 0.
   CHECK(q.johnsonCook->yieldStress(0.05, 0.0, 300.0) == relApprox(229e6 + 439e6 * std::pow(0.05, 0.503), 1e-12));
+  // Its rate slope: C (1 + rate/rate0)^(C-1) / rate0 times the strain and thermal factors.
+  CHECK(q.johnsonCook->flowStress(0.05, 10.0, 500.0).dRate ==
+        relApprox(qHand * 0.1 / (1 + 10.0 / 1.1e-3) / 1.1e-3, 1e-12));
   // The same constants read with the classic rate term (card q235_jc): 1 + C ln(rate/rate0).
   const SolidMaterial qc = makeSolidMaterial(MaterialLibrary::load().get("q235_jc"));
   REQUIRE(qc.johnsonCook);
@@ -166,7 +175,10 @@ TEST_CASE("ZerilliArmstrongFccStrength: cu_ofhc_za card against the formula, low
   const double ep = 0.25, rate = 1000, T = 400;
   const double factor = std::exp(-C3 * T + C4 * T * std::log(rate));
   CHECK(za->yieldStress(ep, rate, T) == relApprox(C0 + C2 * std::sqrt(ep) * factor, 1e-12));
-  CHECK(za->hardening(ep, rate, T) == relApprox(0.5 * C2 / std::sqrt(ep) * factor, 1e-12));
+  const StrengthModel::FlowStress fs = za->flowStress(ep, rate, T);
+  CHECK(fs.value == relApprox(C0 + C2 * std::sqrt(ep) * factor, 1e-12));
+  CHECK(fs.dPlasticStrain == relApprox(0.5 * C2 / std::sqrt(ep) * factor, 1e-12));
+  CHECK(fs.dRate == relApprox(C2 * std::sqrt(ep) * factor * C4 * T / rate, 1e-12));
   // Below the 1 1/s reference rate the ln term is 0 (the solver's clamp): the elastic trial at rate 0 is finite.
   CHECK(za->yieldStress(ep, 0.0, T) == relApprox(C0 + C2 * std::sqrt(ep) * std::exp(-C3 * T), 1e-12));
   // No plastic strain: the athermal C0 alone, whatever the rate and temperature.
@@ -259,7 +271,9 @@ TEST_CASE("bilinear strength with a rate term: (sigma_y0 + H ep)(1 + C ln(rate/r
   // The flow curve and its slope against Johnson-Cook's rate term written out.
   const double ep = 0.1, rate = 1e3;
   CHECK(m.strength->yieldStress(ep, rate, 293) == relApprox((Y0 + H * ep) * (1 + C * std::log(rate / rate0)), 1e-12));
-  CHECK(m.strength->hardening(ep, rate, 293) == relApprox(H * (1 + C * std::log(rate / rate0)), 1e-12));
+  const StrengthModel::FlowStress fs = m.strength->flowStress(ep, rate, 293);
+  CHECK(fs.dPlasticStrain == relApprox(H * (1 + C * std::log(rate / rate0)), 1e-12));
+  CHECK(fs.dRate == relApprox((Y0 + H * ep) * C / rate, 1e-12));
   // At or below the reference rate the term is 1: it hardens, never softens.
   CHECK(m.strength->yieldStress(ep, rate0, 293) == relApprox(Y0 + H * ep, 1e-12));
   CHECK(m.strength->yieldStress(ep, 0.0, 293) == relApprox(Y0 + H * ep, 1e-12));
@@ -294,6 +308,31 @@ TEST_CASE("bilinear strength with a rate term: (sigma_y0 + H ep)(1 + C ln(rate/r
   }
   CHECK(bad.find("strength.reference_strain_rate") != std::string::npos);
   CHECK(bad.find("must be positive") != std::string::npos);
+}
+
+TEST_CASE("radial return, Johnson-Cook: each step lands on the flow curve at its own plastic rate and temperature") {
+  // 2A12 (seed 000 Table 3) in pure shear at 1e5 1/s from 400 K: sigma_vm after each plastic step is
+  // (A + B ep^n)(1 + C ln(dep/dt / rate0))(1 - T*^m) at the step's end strain and plastic rate and the temperature
+  // it started from (the heating follows the return), written out here, not through the strength model.
+  const SolidMaterial m = makeSolidMaterial(MaterialLibrary::load().get("al_2a12"));
+  const double A = 265e6, B = 426e6, n = 0.34, C = 0.015, Tr = 293, Tm = 900;
+  const double dt = 2e-9;
+  const Mat3 D = pureShear(1e5);
+  PointState s = freshState(m, 400.0);
+  int plasticSteps = 0;
+  for (int i = 0; i < 2000 && s.plasticStrain < 0.05; ++i) {
+    const double before = s.plasticStrain, T = s.temperature;
+    m.update(s, D, kZero, dt, 0.0);
+    const double plasticRate = (s.plasticStrain - before) / dt;
+    if (plasticRate > 1.0) {
+      ++plasticSteps;
+      const double byHand = (A + B * std::pow(s.plasticStrain, n)) * (1 + C * std::log(plasticRate)) *
+                            (1 - (T - Tr) / (Tm - Tr));
+      CHECK(vonMises(s.stress) == relApprox(byHand, 1e-8));
+    }
+  }
+  CHECK(plasticSteps > 100);
+  CHECK(s.plasticStrain >= 0.05);
 }
 
 TEST_CASE("Johnson-Cook adiabatic heating: dT = chi W_p / (rho cp)") {

@@ -104,11 +104,25 @@ double JohnsonCookStrength::yieldStress(double ep, double rate, double temperatu
   return strain * rateFactor(rate) * thermalFactor(temperature);
 }
 
-double JohnsonCookStrength::hardening(double ep, double rate, double temperature) const {
-  // The slope B n ep^(n-1) is infinite at ep = 0 for n < 1; the return map brackets its root, so a capped
-  // slope only slows the first iteration.
-  const double e = std::max(ep, 1e-6);
-  return p_.B * p_.n * std::pow(e, p_.n - 1.0) * rateFactor(rate) * thermalFactor(temperature);
+StrengthModel::FlowStress JohnsonCookStrength::flowStress(double ep, double rate, double temperature) const {
+  // The same products as yieldStress, so that the value is the same to the last bit; one pow serves the value
+  // and the slope B n ep^(n-1) = B n ep^n / ep.
+  const double power = ep > 0 ? std::pow(ep, p_.n) : 0.0;
+  const double strain = ep > 0 ? p_.A + p_.B * power : p_.A;
+  const double strainSlope = ep >= 1e-6 ? p_.B * p_.n * power / ep : p_.B * p_.n * std::pow(1e-6, p_.n - 1.0);
+  double factor = 1.0, factorSlope = 0.0;  // the rate term and its derivative, s
+  if (rate > 0.0) {
+    if (p_.modified) {
+      const double base = 1.0 + rate / p_.referenceRate;
+      factor = std::pow(base, p_.C);
+      factorSlope = p_.C * factor / (base * p_.referenceRate);
+    } else {
+      factor = johnsonCookRateFactor(rate, p_.C, p_.referenceRate);
+      if (factor != 1.0) factorSlope = p_.C / rate;
+    }
+  }
+  const double thermal = thermalFactor(temperature);
+  return {strain * factor * thermal, strainSlope * factor * thermal, strain * factorSlope * thermal};
 }
 
 double ZerilliArmstrongFccStrength::thermalRateFactor(double rate, double temperature) const {
@@ -120,9 +134,17 @@ double ZerilliArmstrongFccStrength::yieldStress(double ep, double rate, double t
   return p_.C0 + p_.C2 * std::sqrt(std::max(ep, 0.0)) * thermalRateFactor(rate, temperature);
 }
 
-double ZerilliArmstrongFccStrength::hardening(double ep, double rate, double temperature) const {
-  // Infinite at ep = 0 like Johnson-Cook's for n < 1; capped for the same reason.
-  return 0.5 * p_.C2 / std::sqrt(std::max(ep, 1e-6)) * thermalRateFactor(rate, temperature);
+StrengthModel::FlowStress ZerilliArmstrongFccStrength::flowStress(double ep, double rate, double temperature) const {
+  const double factor = thermalRateFactor(rate, temperature);
+  const double root = std::sqrt(std::max(ep, 0.0));
+  const double rateSlope = rate > p_.referenceRate ? p_.C2 * root * factor * p_.C4 * temperature / rate : 0.0;
+  return {p_.C0 + p_.C2 * root * factor, 0.5 * p_.C2 / std::sqrt(std::max(ep, 1e-6)) * factor, rateSlope};
+}
+
+StrengthModel::FlowStress BilinearStrength::flowStress(double ep, double rate, double) const {
+  const double factor = rateFactor(rate);
+  const double rateSlope = factor != 1.0 ? (yield_ + h_ * ep) * c_ / rate : 0.0;
+  return {(yield_ + h_ * ep) * factor, h_ * factor, rateSlope};
 }
 
 // ---- failure ----
@@ -189,21 +211,23 @@ PointUpdate SolidMaterial::update(PointState& s, const Mat3& D, const Mat3& W, d
       const double seqTrial = seqTrialSquared > y0 * y0 || y0 < 0 ? std::sqrt(seqTrialSquared) : 0.0;
       if (seqTrial > y0) {
         const double threeG = 3.0 * shearModulus;
-        const auto yieldAt = [&](double d) { return strength->yieldStress(s.plasticStrain + d, d / dt, s.temperature); };
         double lo = 0.0, hi = threeG > 0 ? (seqTrial - y0) / threeG : 0.0;
         dep = hi;
+        bool flowAtDep = false;  // whether `flow` is the flow stress at the current dep
         for (int it = 0; it < 30 && threeG > 0; ++it) {
-          const double y = yieldAt(dep);
-          const double f = seqTrial - threeG * dep - y;
+          const StrengthModel::FlowStress y = strength->flowStress(s.plasticStrain + dep, dep / dt, s.temperature);
+          flow = y.value;
+          flowAtDep = true;
+          const double f = seqTrial - threeG * dep - y.value;
           if (std::fabs(f) <= 1e-10 * seqTrial || hi - lo <= 1e-14 * hi) break;
           if (f > 0) lo = dep; else hi = dep;
-          const double delta = 1e-7 * dep + 1e-14;
-          const double slope = threeG + (yieldAt(dep + delta) - y) / delta;
+          const double slope = threeG + y.dPlasticStrain + y.dRate / dt;
           double next = dep + f / slope;
           if (!(next > lo && next < hi)) next = 0.5 * (lo + hi);
           dep = next;
+          flowAtDep = false;
         }
-        flow = yieldAt(dep);
+        if (!flowAtDep) flow = strength->yieldStress(s.plasticStrain + dep, dep / dt, s.temperature);
         sNew *= seqTrial > 0 ? flow / seqTrial : 0.0;
         if (threeG <= 0) sNew.setZero();
       }

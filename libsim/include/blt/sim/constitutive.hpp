@@ -79,11 +79,20 @@ class LinearEos final : public EquationOfState {
 // in K. The return map solves for the plastic increment with the rate that increment implies.
 class StrengthModel {
  public:
+  // The flow stress and its two partial derivatives, which the return map's Newton iteration combines into
+  // d(flow stress)/d(plastic increment) = dPlasticStrain + dRate / dt.
+  struct FlowStress {
+    double value = 0;          // Pa
+    double dPlasticStrain = 0; // Pa
+    double dRate = 0;          // Pa s
+  };
   virtual ~StrengthModel() = default;
   virtual bool plastic() const { return true; }
   virtual double yieldStress(double plasticStrain, double rate, double temperature) const = 0;
-  // d(yield)/d(plastic strain), Pa; used by the Newton iteration of the return map.
-  virtual double hardening(double plasticStrain, double rate, double temperature) const = 0;
+  // The slopes are those of yieldStress where it is smooth; at a kink (Johnson-Cook's rate term at the reference
+  // rate) either side's. Where d/d(plastic strain) is infinite (ep^n, n < 1, at ep = 0) it is capped at
+  // ep = 1e-6: the return map brackets its root, so a capped slope only slows one iteration.
+  virtual FlowStress flowStress(double plasticStrain, double rate, double temperature) const = 0;
 };
 
 // Johnson-Cook's rate term 1 + C ln(rate/rate0) for rates above rate0, else 1 (seed 000 Eq. 9); shared by the
@@ -97,7 +106,7 @@ class ElasticStrength final : public StrengthModel {
  public:
   bool plastic() const override { return false; }
   double yieldStress(double, double, double) const override { return 0; }
-  double hardening(double, double, double) const override { return 0; }
+  FlowStress flowStress(double, double, double) const override { return {}; }
 };
 
 // sigma_y = (sigma_y0 + H ep) (1 + C ln max(rate/rate0, 1)) with the plastic modulus H = E Et / (E - Et) from the
@@ -108,7 +117,7 @@ class BilinearStrength final : public StrengthModel {
   BilinearStrength(double yield, double youngs, double tangent, double rateCoefficient = 0.0,
                    double referenceRate = 1.0);
   double yieldStress(double ep, double rate, double) const override { return (yield_ + h_ * ep) * rateFactor(rate); }
-  double hardening(double, double rate, double) const override { return h_ * rateFactor(rate); }
+  FlowStress flowStress(double ep, double rate, double) const override;
 
  private:
   double rateFactor(double rate) const { return johnsonCookRateFactor(rate, c_, rate0_); }
@@ -128,7 +137,7 @@ class JohnsonCookStrength final : public StrengthModel {
   };
   explicit JohnsonCookStrength(const Parameters& p) : p_(p) {}
   double yieldStress(double ep, double rate, double temperature) const override;
-  double hardening(double ep, double rate, double temperature) const override;
+  FlowStress flowStress(double ep, double rate, double temperature) const override;
   double homologousTemperature(double temperature) const;
 
  private:
@@ -149,7 +158,7 @@ class ZerilliArmstrongFccStrength final : public StrengthModel {
   };
   explicit ZerilliArmstrongFccStrength(const Parameters& p) : p_(p) {}
   double yieldStress(double ep, double rate, double temperature) const override;
-  double hardening(double ep, double rate, double temperature) const override;
+  FlowStress flowStress(double ep, double rate, double temperature) const override;
 
  private:
   double thermalRateFactor(double rate, double temperature) const;
