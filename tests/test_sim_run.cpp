@@ -502,6 +502,19 @@ TEST_CASE("sim: blt bench sim --case times only the cases named, and an unknown 
   CHECK(doc["cases"][0]["steps"] == 50);
   CHECK(doc["cases"][0]["particle_updates_per_s"].get<double>() > 0);
   CHECK_FALSE(doc["cases"][0]["peak_rss_bytes_per_particle"].is_null());  // the first case run owns the peak
+  CHECK(doc["cases"][0]["repeats"] == 1);
+  // --repeat 3: three timings of a case built anew each time; the reported rate is their median.
+  const BltRun three = runBlt("bench sim --quick --case axisymmetric-jc-mg --threads 1 --repeat 3 --json");
+  REQUIRE_MESSAGE(three.status == 0, three.output);
+  const auto c3 = nlohmann::json::parse(three.output)["cases"][0];
+  auto rates = c3["particle_updates_per_s_runs"].get<std::vector<double>>();
+  REQUIRE(rates.size() == 3);
+  std::sort(rates.begin(), rates.end());
+  CHECK(c3["particle_updates_per_s"].get<double>() == rates[1]);
+  CHECK(c3["steps"] == 50);
+  const BltRun none = runBlt("bench sim --repeat 0");
+  CHECK(none.status != 0);
+  CHECK(none.output.find("--repeat") != std::string::npos);
   const BltRun bad = runBlt("bench sim --case 2d");
   CHECK(bad.status == 2);
   CHECK(bad.output.find("--case") != std::string::npos);
