@@ -160,9 +160,19 @@ nlohmann::json timeCase(const std::string& name, const std::string& description,
   ro.frames = 0;
   // One untimed step first: it touches every page of the grid and caches.
   solver.step();
+  const StageTimes before = solver.stageTimes();
   const RunResult r = run<D>(solver, ro);
+  const StageTimes& after = solver.stageTimes();
   const double n = static_cast<double>(solver.particles().size());
+  const nlohmann::json stages = {{"reorder", after.reorder - before.reorder},
+                                 {"shape_functions", after.shapeFunctions - before.shapeFunctions},
+                                 {"particles_to_grid", after.particlesToGrid - before.particlesToGrid},
+                                 {"grid", after.grid - before.grid},
+                                 {"grid_to_particles", after.gridToParticles - before.gridToParticles},
+                                 {"remap", after.remap - before.remap},
+                                 {"stress", after.stress - before.stress}};
   return {{"case", name},
+          {"stage_seconds", stages},
           {"description", description},
           {"particles", solver.particles().size()},
           {"steps", r.steps},
@@ -182,7 +192,11 @@ nlohmann::json timeRepeated(int repeat, bool first, F&& timeOnce) {
   std::vector<double> rates, walls;
   for (int r = 0; r < repeat; ++r) {
     const nlohmann::json t = timeOnce(first && r == 0);
-    if (r == 0) doc = t;
+    if (r == 0)
+      doc = t;
+    else  // the stages' times are summed over the timings
+      for (auto& [stage, seconds] : doc["stage_seconds"].items())
+        seconds = seconds.template get<double>() + t["stage_seconds"][stage].template get<double>();
     rates.push_back(t["particle_updates_per_s"].get<double>());
     walls.push_back(t["wall_time_s"].get<double>());
   }
@@ -194,6 +208,9 @@ nlohmann::json timeRepeated(int repeat, bool first, F&& timeOnce) {
   doc["particle_updates_per_s"] = median(rates);
   doc["wall_time_s"] = median(walls);
   doc["repeats"] = repeat;
+  double total = 0;
+  for (const auto& w : walls) total += w;
+  doc["timed_wall_time_s"] = total;
   doc["particle_updates_per_s_runs"] = rates;
   return doc;
 }
@@ -227,6 +244,20 @@ void benchSim(const BenchOptions& o) {
                       ? ""
                       : (", " + fmt("%.0f", c["peak_rss_bytes_per_particle"].get<double>()) + " B/particle (peak RSS)")
                             .c_str());
+    if (!o.json) {
+      // Where the time went: each stage's share of the timed wall time; the rest is the run's own bookkeeping
+      // (energies, the verdict's checks, progress).
+      const double wall = c["timed_wall_time_s"].get<double>();
+      std::string line = "  stages:";
+      double staged = 0;
+      for (const char* stage : {"reorder", "shape_functions", "particles_to_grid", "grid", "grid_to_particles",
+                                "remap", "stress"}) {
+        const double seconds = c["stage_seconds"][stage].get<double>();
+        line += std::string(" ") + stage + fmt(" %.0f %%", 100.0 * seconds / wall);
+        staged += seconds;
+      }
+      std::printf("%s, other%s\n", line.c_str(), fmt(" %.0f %%", 100.0 * (wall - staged) / wall).c_str());
+    }
     std::fflush(stdout);
   };
   if (selected(kBenchCases[0])) {

@@ -512,6 +512,15 @@ TEST_CASE("sim: blt bench sim --case times only the cases named, and an unknown 
   std::sort(rates.begin(), rates.end());
   CHECK(c3["particle_updates_per_s"].get<double>() == rates[1]);
   CHECK(c3["steps"] == 50);
+  // The stages' times are parts of the timed wall time, summed over the three timings.
+  double staged = 0;
+  for (const auto& [stage, seconds] : c3["stage_seconds"].items()) {
+    CHECK(seconds.get<double>() >= 0);
+    staged += seconds.get<double>();
+  }
+  CHECK(c3["stage_seconds"].size() == 7);
+  CHECK(staged > 0);
+  CHECK(staged <= c3["timed_wall_time_s"].get<double>());
   const BltRun none = runBlt("bench sim --repeat 0");
   CHECK(none.status != 0);
   CHECK(none.output.find("--repeat") != std::string::npos);

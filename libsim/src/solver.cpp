@@ -57,6 +57,19 @@ constexpr long kReorderInterval = 25;
 constexpr double kContactVolumeFraction = 0.05;
 // Bits of corrected_: the node's velocity was changed by the contact correction, by the dashpots.
 constexpr std::uint8_t kByContact = 1, kByBoundary = 2;
+
+// Adds the wall time of its scope to a stage's total.
+class StageClock {
+ public:
+  explicit StageClock(double& total) : total_(total), start_(omp_get_wtime()) {}
+  ~StageClock() { total_ += omp_get_wtime() - start_; }
+  StageClock(const StageClock&) = delete;
+  StageClock& operator=(const StageClock&) = delete;
+
+ private:
+  double& total_;
+  double start_;
+};
 }  // namespace
 
 template <int D>
@@ -139,7 +152,10 @@ void Solver<D>::bodyWaveSpeeds() {
 
 template <int D>
 void Solver<D>::step() {
-  if (steps_ % kReorderInterval == 0) sortParticles();
+  if (steps_ % kReorderInterval == 0) {
+    const StageClock clock(stageTimes_.reorder);
+    sortParticles();
+  }
   static_cast<const UpdateScheme<D>&>(*scheme_).advance(*this);
 }
 
@@ -173,6 +189,7 @@ void Solver<D>::sortParticles() {
 // Stage 1: stencils and thread bins.
 template <int D>
 void Solver<D>::computeShapeFunctions() {
+  const StageClock clock(stageTimes_.shapeFunctions);
   const std::size_t n = particles_.size();
   const double h = spec_.cellSize;
   const ShapeFunctionKind kind = options_.shapeFunction;
@@ -289,6 +306,7 @@ void Solver<D>::scatterByColour(F&& body) {
 // Stage 2: particles to grid.
 template <int D>
 void Solver<D>::particlesToGrid() {
+  const StageClock clock(stageTimes_.particlesToGrid);
   const std::size_t fields = scatter_.size();
 #pragma omp parallel for schedule(static) num_threads(threads_) if (parallel_)
   for (long i = 0; i < static_cast<long>(fields); ++i) {
@@ -501,6 +519,7 @@ void Solver<D>::applyVelocityConditions(bool integrate) {
 
 template <int D>
 void Solver<D>::integrateGrid() {
+  const StageClock clock(stageTimes_.grid);
   applyVelocityConditions(true);
 }
 
@@ -508,6 +527,7 @@ void Solver<D>::integrateGrid() {
 // Stage 4: grid to particles.
 template <int D>
 void Solver<D>::gridToParticles() {
+  const StageClock clock(stageTimes_.gridToParticles);
   const int ns = stencilSize(options_.shapeFunction);
   const double dt = dt_;
   const double flip = options_.flipFraction;
@@ -561,6 +581,7 @@ void Solver<D>::gridToParticles() {
 // Stage 5 (MUSL): map the updated momenta back to the grid.
 template <int D>
 void Solver<D>::remapMomentum() {
+  const StageClock clock(stageTimes_.remap);
   const std::size_t fields = scatter_.size();
 #pragma omp parallel for schedule(static) num_threads(threads_) if (parallel_)
   for (long i = 0; i < static_cast<long>(fields); ++i) remappedMomentum_[i].setZero();
@@ -583,6 +604,7 @@ void Solver<D>::remapMomentum() {
 // Stage 6: strain increment and constitutive update; the next time step.
 template <int D>
 void Solver<D>::updateStress() {
+  const StageClock clock(stageTimes_.stress);
   const int ns = stencilSize(options_.shapeFunction);
   const double dt = dt_;
   const double h = spec_.cellSize;

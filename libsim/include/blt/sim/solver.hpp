@@ -125,6 +125,12 @@ struct ScatterNode {
   Vec<D> gradient = Vec<D>::Zero();
 };
 
+// Wall time spent in each stage of the step, s, summed since the solver was made (for `blt bench sim`; the
+// clock is read twice a stage, a few hundred nanoseconds a step).
+struct StageTimes {
+  double reorder = 0, shapeFunctions = 0, particlesToGrid = 0, grid = 0, gridToParticles = 0, remap = 0, stress = 0;
+};
+
 template <int D>
 class Solver {
  public:
@@ -148,6 +154,7 @@ class Solver {
   long stepCount() const { return steps_; }
   int bodyCount() const { return bodies_; }
   std::size_t activeParticles() const { return activeCount_; }
+  const StageTimes& stageTimes() const { return stageTimes_; }
   EnergyBalance energies() const;
   // Bytes held by particles, grid and caches.
   std::size_t memoryBytes() const;
@@ -229,6 +236,7 @@ class Solver {
   double massEpsilon_ = 0;
   double erosionSoundSpeedLimit_ = 0;  // m/s; failed points whose sound speed exceeds it are removed (0: never)
   double contactDissipation_ = 0, boundaryWork_ = 0;
+  StageTimes stageTimes_;
 };
 
 extern template class Solver<2>;
