@@ -231,9 +231,10 @@ void benchSim(const BenchOptions& o) {
     cases.push_back(c);
     const auto runs = c["particle_updates_per_s_runs"].get<std::vector<double>>();
     const auto [slowest, fastest] = std::minmax_element(runs.begin(), runs.end());
-    const std::string spread = runs.size() > 1 ? " (median of " + std::to_string(runs.size()) + ", " + fmt("%.3e", *slowest) +
-                                                     fmt(" to %.3e)", *fastest)
-                                               : "";
+    const std::string spread =
+        runs.size() > 1
+            ? " (median of " + std::to_string(runs.size()) + ", " + fmt("%.3e", *slowest) + fmt(" to %.3e)", *fastest)
+            : "";
     if (!o.json)
       std::printf("%-22s %9zu particles %5ld steps %8.2f s  particle_updates_per_s %.3e%s  memory %.0f B/particle "
                   "(solver)%s\n",
