@@ -193,14 +193,7 @@ void runFit(const CLI::App& cmd, const FitCommandOptions& o) {
   // Fit first: a failed fit must leave the store untouched.
   const ble::FitResult result = ble::fitChristiansen(points, options);
 
-  ble::StoredFit stored;
-  stored.name = o.name;
-  stored.options = options;
-  stored.result = result;
-  stored.points = points;
-  stored.dataOrigin = origin;
-  stored.dataHash = ble::hashPoints(points);
-  stored.toolVersion = BLT_VERSION;
+  const ble::StoredFit stored = ble::storedFit(o.name, options, result, points, origin);
   ble::BleStore store(o.db);
   store.saveFit(stored, o.replace);
 

@@ -367,21 +367,16 @@ std::string benchSeedFit(BleSeed& seed, const fs::path& dir) {
     points.insert(points.end(), read.begin(), read.end());
     origin += (origin.empty() ? "" : "; ") + file;
   }
-  ble::StoredFit stored;
-  stored.name = seed.fit;
-  stored.options = options;
-  stored.result = ble::fitChristiansen(points, options);
-  stored.points = points;
-  stored.dataOrigin = origin;
-  stored.dataHash = ble::hashPoints(points);
-  stored.toolVersion = BLT_VERSION;
+  ble::FitResult result = ble::fitChristiansen(points, options);
+  const std::size_t pointCount = points.size();
+  const ble::StoredFit stored = ble::storedFit(seed.fit, options, std::move(result), std::move(points), origin);
   const std::string path = (dir / "fits.db").string();
   ble::BleStore(path).saveFit(stored, false);
   seed.db = path;
   char took[32];
   std::snprintf(took, sizeof took, "%.2g s",
                 std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
-  return why + "; made fit '" + seed.fit + "' from seed 000 Table 1 tests + Table 7 (" + std::to_string(points.size()) +
+  return why + "; made fit '" + seed.fit + "' from seed 000 Table 1 tests + Table 7 (" + std::to_string(pointCount) +
          " points, 2770 kg/m3, " + ble::toString(stored.result.method) + ") into " + path + " in " + took;
 }
 

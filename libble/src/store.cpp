@@ -15,6 +15,7 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string_view>
+#include <utility>
 
 #include "blt/core/clock.hpp"
 #include "blt/core/error.hpp"
@@ -504,6 +505,19 @@ std::vector<FitSummary> BleStore::listFits() const {
 // angle and density (17 significant digits as with %.17g, but locale-free, so any two doubles differ), its outcome
 // and its length-prefixed source label. The origin (file and line it was read from) is left out, so the same data
 // read from a copied or moved file hash the same.
+StoredFit storedFit(std::string name, const FitOptions& options, FitResult result, std::vector<ImpactPoint> points,
+                    std::string dataOrigin) {
+  StoredFit stored;
+  stored.name = std::move(name);
+  stored.options = options;
+  stored.result = std::move(result);
+  stored.dataHash = hashPoints(points);
+  stored.points = std::move(points);
+  stored.dataOrigin = std::move(dataOrigin);
+  stored.toolVersion = BLT_VERSION;
+  return stored;
+}
+
 std::string hashPoints(const std::vector<ImpactPoint>& points) {
   std::uint64_t h = 0xcbf29ce484222325ull;
   auto feed = [&h](std::string_view text) {

@@ -67,4 +67,9 @@ class BleStore {
 // A stable fingerprint of the points (hex), independent of platform: the same data always hash the same.
 std::string hashPoints(const std::vector<ImpactPoint>& points);
 
+// A fit as saveFit wants it: its name, options, result, points and their origin, with the points' hash and this
+// blt's version filled in.
+StoredFit storedFit(std::string name, const FitOptions& options, FitResult result, std::vector<ImpactPoint> points,
+                    std::string dataOrigin);
+
 }  // namespace blt::ble
