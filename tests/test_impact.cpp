@@ -35,7 +35,7 @@ thickness = "1 mm"
 [resolution]
 particle_spacing = "0.1 mm"
 [run]
-max_time = "3 us"
+max_time = "5 us"
 )toml" + extra;
 }
 
@@ -608,11 +608,11 @@ TEST_CASE("impact: a run killed after a checkpoint and resumed ends exactly as t
   // Reference: the uninterrupted run of the same scenario (one thread, so both are bit for bit reproducible).
   // The interrupted run stops at a step limit twice; the second checkpoint is then replaced by the first, as a
   // kill after the first would leave it, with energy and verdict rows written past it that must be dropped.
-  // A steel sphere through 0.2 mm of plate settles at about 5.8 us: perforated, and stopped once the mass behind
+  // A steel sphere through 0.2 mm of plate settles at about 15.7 us: perforated, and stopped once the mass behind
   // the wall, the residual velocity and the hole have held still over the last half of the run, a look back
   // past the first checkpoint (at 60 % of the steps), so the earlier verdicts must come back with it.
   const std::vector<std::string> settings = {"target.layer.1.thickness=0.2mm", "projectile.velocity=4km/s",
-                                             "projectile.material=steel_4340", "run.max_time=10us"};
+                                             "projectile.material=steel_4340", "run.max_time=20us"};
   const ImpactScenario sc = parseScenario(plateScenario(), "plate.toml", settings);
   const fs::path base = fs::temp_directory_path() / ("blt_test_resume_" + std::to_string(::getpid()));
   fs::remove_all(base);

@@ -183,22 +183,44 @@ TEST_CASE("sim: nodal contact correction: no interpenetration, Coulomb sliding, 
   CHECK(u[1] == Vec<2>(0, -1));
 }
 
-// Worked by hand: a sliver whose momentum velocity is (1, -3) approaches a body below it (sliver normal (0, -1))
-// whose centre of mass moves at (0, -1): it loses the approach, -2, from its own (ill-defined) nodal velocity
-// (5, 40) -> (5, 42). Moving away it keeps it; inside a body (no normal) it loses all its relative velocity.
+// Three bodies at one node, worked by hand: masses 1, 1, 2, velocities (0, -1), (0, 1), (1, 0), normals -y, +y and
+// +x (not opposite pairs, as at a node shared by a projectile, a liner and a plate). Centre of mass (0.5, 0); all
+// three approach; with mu = 0 bodies 1 and 2 lose their normal speed 1 and go to (0, 0), body 3 its 0.5 and goes to
+// (0.5, 0). That changes the momentum by (0, 1) + (0, -1) + 2 (-0.5, 0) = (-1, 0), given back as (0.25, 0) to each.
+// Reference: momentum conservation (the total stays (2, 0)) with the relative velocities of the correction kept.
+TEST_CASE("sim: nodal contact among three bodies conserves momentum") {
+  const double m[3] = {1.0, 1.0, 2.0};
+  const Vec<2> normal[3] = {Vec<2>(0, -1), Vec<2>(0, 1), Vec<2>(1, 0)};
+  const int ids[3] = {0, 1, 2};
+  Vec<2> v[3] = {Vec<2>(0, -1), Vec<2>(0, 1), Vec<2>(1, 0)};
+  correctContact<2>(v, m, normal, ids, 3, 0.0);
+  CHECK((v[0] - Vec<2>(0.25, 0)).norm() < 1e-12);
+  CHECK((v[1] - Vec<2>(0.25, 0)).norm() < 1e-12);
+  CHECK((v[2] - Vec<2>(0.75, 0)).norm() < 1e-12);
+  const Vec<2> p = m[0] * v[0] + m[1] * v[1] + m[2] * v[2];
+  CHECK((p - Vec<2>(2, 0)).norm() < 1e-12);
+}
+
+// Worked by hand: a sliver (mass 0.5) whose momentum velocity is (1, -3) approaches a body below it (sliver normal
+// (0, -1)) whose centre of mass moves at (0, -1): it loses the approach, -2, from its own (ill-defined) nodal
+// velocity (5, 40) -> (5, 42), and the momentum it lost, 0.5 x (0, 2), is returned for the struck body. Moving
+// away it keeps it; inside a body (no normal) it loses all its relative velocity, (1, -2).
 TEST_CASE("sim: a sliver may not enter another body, corrected from its momentum velocity") {
   const int ids[1] = {0};
+  const double m[1] = {0.5};
   const Vec<2> momentumVelocity[1] = {Vec<2>(1, -3)};
   Vec<2> v[1] = {Vec<2>(5, 40)};
-  correctSlivers<2>(v, momentumVelocity, ids, 1, Vec<2>(0, -1), Vec<2>(0, -1));
+  const Vec<2> taken = correctSlivers<2>(v, m, momentumVelocity, ids, 1, Vec<2>(0, -1), Vec<2>(0, -1));
   CHECK((v[0] - Vec<2>(5, 42)).norm() < 1e-12);
+  CHECK((taken - Vec<2>(0, 1)).norm() < 1e-12);
   const Vec<2> away[1] = {Vec<2>(1, 3)};
   Vec<2> w[1] = {Vec<2>(5, 40)};
-  correctSlivers<2>(w, away, ids, 1, Vec<2>(0, -1), Vec<2>(0, -1));
+  CHECK(correctSlivers<2>(w, m, away, ids, 1, Vec<2>(0, -1), Vec<2>(0, -1)).isZero(0.0));
   CHECK(w[0] == Vec<2>(5, 40));
   Vec<2> u[1] = {Vec<2>(5, 40)};
-  correctSlivers<2>(u, momentumVelocity, ids, 1, Vec<2>(0, -1), Vec<2>::Zero());
+  const Vec<2> inside = correctSlivers<2>(u, m, momentumVelocity, ids, 1, Vec<2>(0, -1), Vec<2>::Zero());
   CHECK((u[0] - Vec<2>(4, 42)).norm() < 1e-12);
+  CHECK((inside - Vec<2>(-0.5, 1)).norm() < 1e-12);
 }
 
 // Light spray (isolated points of 1 % of the plate's density) shot at 3 km/s onto an aluminium plate: each spray

@@ -486,11 +486,13 @@ void Solver<D>::applyVelocityConditions(bool integrate) {
           p += m[b] * v[b];
         }
         // The slivers' momentum velocities; during the integration velocityChange_ holds them. Their correction is
-        // neither tallied nor kept through the MUSL remap (see correctSlivers).
+        // neither tallied nor kept through the MUSL remap (see correctSlivers). What they lose, the bodies they
+        // struck gain, as a common velocity.
         Vec<D> momentumVelocity[kMaxBodies];
         for (int k = 0; k < sliverCount; ++k)
           momentumVelocity[slivers[k]] = integrate ? velocityChange_[slivers[k] * N + n] : v[slivers[k]];
-        correctSlivers<D>(v, momentumVelocity, slivers, sliverCount, p / mt, -normal[dominant]);
+        const Vec<D> taken = correctSlivers<D>(v, m, momentumVelocity, slivers, sliverCount, p / mt, -normal[dominant]);
+        for (int k = 0; k < contactCount; ++k) v[touching[k]] -= taken / mt;
       }
     }
     if (anyBoundary) {
