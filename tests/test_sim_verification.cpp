@@ -74,6 +74,66 @@ std::unique_ptr<Solver<2>> uniaxialColumn(const char* cardText, double L, double
   return solver;
 }
 
+// Symmetric flyer-plate impact: aluminium (Mie-Grueneisen, seed 001's 2A12 constants c0 = 5328 m/s,
+// s = 1.338; no strength) at 1 km/s on the same material at rest, run until the shock has crossed 0.6 of the
+// target (release from the flyer's rear has not caught up). Behind the shock u_p = V/2 and the pressure is the
+// Hugoniot's rho0 (c0 + s u_p) u_p (Rankine-Hugoniot jump conditions).
+struct FlyerPlate {
+  std::unique_ptr<Solver<3>> solver;
+  double expectedPressure = 0, initialEnergy = 0;
+  double shockedPressure() const;  // mean pressure in the shocked band, away from interface and front
+};
+
+constexpr double kFlyerLength = 10e-3;
+
+double FlyerPlate::shockedPressure() const {
+  return layerMean(*solver, 2, -0.4 * kFlyerLength, -0.1 * kFlyerLength,
+                   [&](std::size_t i) { return -solver->particles().stress[i].trace() / 3.0; });
+}
+
+FlyerPlate flyerPlate(ContactMode mode) {
+  const char* hydro = R"toml(name = "hydrodynamic aluminium"
+source = "seed 001 Tables 1-2 (2A12 Hugoniot)"
+density = "2770 kg/m3"
+[elastic]
+shear_modulus = "0 GPa"
+[strength]
+model = "elastic"
+[eos]
+model = "mie-grueneisen"
+c0 = "5328 m/s"
+s = 1.338
+gamma0 = 2.0
+)toml";
+  const double h = 0.2e-3, s = 0.1e-3, L = kFlyerLength, V = 1000.0;
+  GridSpec<3> g;
+  g.cellSize = h;
+  g.lower = Vec<3>(0, 0, -L - 2 * h);
+  g.upper = Vec<3>(2 * h, 2 * h, L + 2 * h);
+  g.boundary = {BoundaryKind::symmetry, BoundaryKind::symmetry, BoundaryKind::symmetry,
+                BoundaryKind::symmetry, BoundaryKind::free, BoundaryKind::free};
+  SolverOptions o;
+  o.contact.mode = mode;
+  FlyerPlate f;
+  f.solver = std::make_unique<Solver<3>>(g, o, std::vector<SolidMaterial>{makeSolidMaterial(card(hydro, "hydro"))});
+  Solver<3>& solver = *f.solver;
+  BodyFill<3> flyer;
+  flyer.spacing = s;
+  flyer.velocity = Vec<3>(0, 0, -V);
+  fillBox<3>(solver.particles(), solver.materials()[0], flyer, Vec<3>(0, 0, 0), Vec<3>(2 * h, 2 * h, L));
+  BodyFill<3> target;
+  target.spacing = s;
+  target.body = 1;
+  fillBox<3>(solver.particles(), solver.materials()[0], target, Vec<3>(0, 0, -L), Vec<3>(2 * h, 2 * h, 0));
+  solver.initialise();
+  f.initialEnergy = solver.energies().kinetic;
+  const double up = V / 2, rho0 = 2770, c0 = 5328, sl = 1.338;
+  f.expectedPressure = rho0 * (c0 + sl * up) * up;
+  const double tEnd = 0.6 * L / (c0 + sl * up);
+  while (solver.time() < tEnd) solver.step();
+  return f;
+}
+
 }  // namespace
 
 TEST_SUITE("verification") {
@@ -108,54 +168,29 @@ TEST_CASE("sim: elastic plane wave speed in a 3D column within 2 % of sqrt((K+4G
   CHECK(measured == relApprox(c, 0.02));
 }
 
-// Symmetric flyer-plate impact: aluminium (Mie-Grueneisen, seed 001's 2A12 constants c0 = 5328 m/s,
-// s = 1.338; no strength) at 1 km/s on the same material at rest. Behind the shock u_p = V/2 and the pressure is
-// the Hugoniot's rho0 (c0 + s u_p) u_p (Rankine-Hugoniot jump conditions).
 TEST_CASE("sim: symmetric flyer-plate shock pressure within 5 % of rho0 (c0 + s up) up") {
-  const char* hydro = R"toml(name = "hydrodynamic aluminium"
-source = "seed 001 Tables 1-2 (2A12 Hugoniot)"
-density = "2770 kg/m3"
-[elastic]
-shear_modulus = "0 GPa"
-[strength]
-model = "elastic"
-[eos]
-model = "mie-grueneisen"
-c0 = "5328 m/s"
-s = 1.338
-gamma0 = 2.0
-)toml";
-  const double h = 0.2e-3, s = 0.1e-3, L = 10e-3, V = 1000.0;
-  GridSpec<3> g;
-  g.cellSize = h;
-  g.lower = Vec<3>(0, 0, -L - 2 * h);
-  g.upper = Vec<3>(2 * h, 2 * h, L + 2 * h);
-  g.boundary = {BoundaryKind::symmetry, BoundaryKind::symmetry, BoundaryKind::symmetry,
-                BoundaryKind::symmetry, BoundaryKind::free, BoundaryKind::free};
-  SolverOptions o;
-  o.contact.mode = ContactMode::singleField;
-  Solver<3> solver(g, o, {makeSolidMaterial(card(hydro, "hydro"))});
-  BodyFill<3> flyer;
-  flyer.spacing = s;
-  flyer.velocity = Vec<3>(0, 0, -V);
-  fillBox<3>(solver.particles(), solver.materials()[0], flyer, Vec<3>(0, 0, 0), Vec<3>(2 * h, 2 * h, L));
-  BodyFill<3> target;
-  target.spacing = s;
-  target.body = 1;
-  fillBox<3>(solver.particles(), solver.materials()[0], target, Vec<3>(0, 0, -L), Vec<3>(2 * h, 2 * h, 0));
-  solver.initialise();
-  const double up = V / 2, rho0 = 2770, c0 = 5328, sl = 1.338;
-  const double expected = rho0 * (c0 + sl * up) * up;
-  const double us = c0 + sl * up;
-  // The shock has run 0.6 L into the target; release from the flyer's rear has not caught up.
-  const double tEnd = 0.6 * L / us;
-  while (solver.time() < tEnd) solver.step();
-  // Pressure in the shocked band between the interface and the front, away from both.
-  const double p = layerMean(solver, 2, -0.4 * L, -0.1 * L, [&](std::size_t i) {
-    return -solver.particles().stress[i].trace() / 3.0;
-  });
-  MESSAGE("shock pressure " << p / 1e9 << " GPa, Hugoniot " << expected / 1e9 << " GPa");
-  CHECK(p == relApprox(expected, 0.05));
+  const FlyerPlate f = flyerPlate(ContactMode::singleField);
+  const double p = f.shockedPressure();
+  MESSAGE("shock pressure " << p / 1e9 << " GPa, Hugoniot " << f.expectedPressure / 1e9 << " GPa");
+  CHECK(p == relApprox(f.expectedPressure, 0.05));
+}
+
+// The same impact with flyer and target as two bodies under the multi-field contact: the shock crosses the
+// contact as it crosses the single field (same Hugoniot pressure), and the energy balance closes with the
+// contact's tally. Nothing in a symmetric impact of hydrodynamic material dissipates but the shock (internal
+// energy) and the first, inelastic meeting of the two interface nodes, so kinetic + internal + contact
+// dissipation stay at the impact energy. Measured: 1.7 % above it; the tally that charged each particle with
+// the kinetic energy it would have had without the correction gave 9.9 % above.
+TEST_CASE("sim: a flyer-plate shock crosses the multi-field contact and the energy balance closes within 2 %") {
+  const FlyerPlate f = flyerPlate(ContactMode::multiField);
+  const double p = f.shockedPressure();
+  const EnergyBalance e = f.solver->energies();
+  MESSAGE("shock pressure " << p / 1e9 << " GPa, Hugoniot " << f.expectedPressure / 1e9 << " GPa; kinetic "
+                            << e.kinetic / f.initialEnergy * 100 << " %, internal " << e.internal / f.initialEnergy * 100
+                            << " %, contact " << e.contactDissipation / f.initialEnergy * 100 << " %");
+  CHECK(p == relApprox(f.expectedPressure, 0.05));
+  CHECK(e.contactDissipation >= 0);
+  CHECK(e.total() == relApprox(f.initialEnergy, 0.02));
 }
 
 // A long elastic column (uniaxial strain, plane strain with symmetry sides, no bulk viscosity) strikes a rigid
@@ -230,9 +265,12 @@ TEST_CASE("sim: a non-reflecting face absorbs an impedance-matched impact: less 
   while (solver.time() < 3 * L / c) solver.step();
   const EnergyBalance e = solver.energies();
   MESSAGE("left in the column: kinetic " << e.kinetic / e0.kinetic * 100 << " %, internal "
-                                          << e.internal / e0.kinetic * 100 << " %");
+                                          << e.internal / e0.kinetic * 100 << " %; tallied through the face "
+                                          << e.boundaryWork / e0.kinetic * 100 << " %");
   CHECK(e.kinetic + e.internal < 0.02 * e0.kinetic);
-  CHECK(e.boundaryWork > 0.9 * e0.kinetic);  // the tally sees it leave (an estimate: see EnergyBalance)
+  // The dashpots' tally is what left: with it the balance closes (measured 100.0 %; the tally that charged each
+  // particle with the kinetic energy it would have had without the dashpot gave 118 %).
+  CHECK(e.total() == relApprox(e0.kinetic, 0.01));
 }
 
 // The same normal impact run as a 3D quarter model and as an axisymmetric model must give the same crater:

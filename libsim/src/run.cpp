@@ -246,7 +246,8 @@ RunResult run(Solver<D>& solver, const RunOptions& options, const RunHooks<D>& h
         break;
       }
       // Kinetic + internal energy cannot exceed the initial total without external work; the contact and
-      // boundary tallies are estimates and stay out of this test.
+      // boundary tallies stay out of this test (with the multi-field contact in layered targets the balance does
+      // not yet close: see EnergyBalance).
       const double held = e.kinetic + e.internal;
       if (reference > 0 && held > (1.0 + options.energyGrowthLimit) * reference) {
         std::ostringstream msg;
