@@ -173,11 +173,11 @@ void runBisect(const BisectCliOptions& o) {
   if (!o.scenario.json) describeScenario(sc);
   ScenarioOptions quietRuns = o.scenario;
   quietRuns.quiet = true;  // one line per run instead
+  // One line per run on stderr, with --json too: a bisection runs for minutes to hours, and the JSON is stdout.
   const auto onRun = [&](const BisectionRun& r) {
-    if (!o.scenario.json)
-      std::fprintf(stderr, "  run %s = %.5g %s: %s%s, %.1f s\n", o.on.c_str(), r.value * scale, unit,
-                   r.status == RunStatus::unstable ? "UNSTABLE" : (r.perforated ? "perforated" : "not perforated"),
-                   r.settled ? "" : " (not settled)", r.wallSeconds);
+    std::fprintf(stderr, "  run %s = %.5g %s: %s%s, %.1f s\n", o.on.c_str(), r.value * scale, unit,
+                 r.status == RunStatus::unstable ? "UNSTABLE" : (r.perforated ? "perforated" : "not perforated"),
+                 r.settled ? "" : " (not settled)", r.wallSeconds);
   };
   const BisectionResult b = bisectScenario(sc, bo, runOptions(quietRuns), onRun);
   nlohmann::json runs = nlohmann::json::array();

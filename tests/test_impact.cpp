@@ -494,6 +494,7 @@ TEST_CASE("blt sim run and blt sim bisect from the command line") {
   const auto bis = nlohmann::json::parse(b.output.substr(b.output.find('{')));
   CHECK(bis["runs"].size() == bis["run_count"]);
   CHECK(bis.contains("largest_not_perforating_mm"));
+  CHECK(contains(b.output, "  run diameter = "));  // progress, one line per run on stderr, with --json too
 
   // An ensemble over grid offsets: one run per offset, and the count is of those runs' own verdicts.
   const BltRun e = runBlt("sim run '" + file.string() + "' --ensemble 2 --json --threads 1");
