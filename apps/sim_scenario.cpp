@@ -184,11 +184,13 @@ void runBisect(const BisectCliOptions& o) {
   for (const auto& r : b.runs) runs.push_back(r.summary);
   const auto value = [&](double v) { return std::isnan(v) ? nlohmann::json() : nlohmann::json(v * scale); };
   const std::string key = o.on == "diameter" ? "_mm" : "_m_s";
+  const BisectionRun* safe = b.largestSafeRun();
   nlohmann::json doc = {{"scenario", sc.name},
                         {"variable", o.on},
                         {"resolved", b.resolved},
                         {"message", b.message},
                         {"largest_not_perforating" + key, value(b.largestSafe)},
+                        {"largest_not_perforating_settled", safe ? nlohmann::json(safe->settled) : nlohmann::json()},
                         {"smallest_perforating" + key, value(b.smallestPerforating)},
                         {"estimate" + key, b.resolved ? value(b.estimate()) : nlohmann::json()},
                         {"half_width" + key, b.resolved ? value(0.5 * (b.smallestPerforating - b.largestSafe)) : nlohmann::json()},
@@ -204,6 +206,10 @@ void runBisect(const BisectCliOptions& o) {
   if (b.resolved)
     std::printf("ballistic limit: %.5g +- %.3g %s after %zu runs\n", b.estimate() * scale,
                 0.5 * (b.smallestPerforating - b.largestSafe) * scale, unit, b.runs.size());
+  if (safe && !safe->settled)
+    std::printf("note: the largest %s not perforating ended unsettled at run.max_time = %s; a longer run may still "
+                "perforate it, and the limit would then lie lower: check with --set run.max_time=...\n",
+                o.on.c_str(), units::format(sc.run.maxTime, "us", 4).c_str());
 }
 
 

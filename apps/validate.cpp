@@ -96,8 +96,9 @@ struct Limit {
   BisectionResult result;
   double estimate() const { return result.resolved ? result.estimate() : NAN; }
   std::string bracket(const char* unit, double scale) const {
+    const BisectionRun* safe = result.largestSafeRun();
     return "[" + fmt(result.largestSafe * scale, "%.4g") + ", " + fmt(result.smallestPerforating * scale, "%.4g") +
-           "] " + unit;
+           "] " + unit + (safe && !safe->settled ? " (lower end unsettled at the end time)" : "");
   }
 };
 

@@ -444,8 +444,18 @@ TEST_CASE("bisection: brackets a monotone threshold in log2(width / tolerance) r
   // 0.6 mm halved to 0.0375 mm: four bisections after the two bracket runs (issue 5: at most 6 from a good bracket).
   CHECK(b.runs.size() == 6);
   CHECK(seen.size() == b.runs.size());
+  // The run that set the lower end is kept, to tell whether it settled; a trusted lower end has none.
+  REQUIRE(b.largestSafeRun() != nullptr);
+  CHECK(b.largestSafeRun()->value == b.largestSafe);
+  CHECK_FALSE(b.largestSafeRun()->perforated);
   o.checkBracket = false;
   CHECK(bisect(o, outcome).runs.size() == 4);
+  const auto alwaysPerforated = [](double) {
+    BisectionRun r;
+    r.perforated = true;
+    return r;
+  };
+  CHECK(bisect(o, alwaysPerforated).largestSafeRun() == nullptr);
 
   // A bracket that does not hold says so and keeps what it ran.
   o.checkBracket = true;
@@ -494,6 +504,7 @@ TEST_CASE("blt sim run and blt sim bisect from the command line") {
   const auto bis = nlohmann::json::parse(b.output.substr(b.output.find('{')));
   CHECK(bis["runs"].size() == bis["run_count"]);
   CHECK(bis.contains("largest_not_perforating_mm"));
+  CHECK(bis.contains("largest_not_perforating_settled"));
   CHECK(contains(b.output, "  run diameter = "));  // progress, one line per run on stderr, with --json too
 
   // An ensemble over grid offsets: one run per offset, and the count is of those runs' own verdicts.

@@ -283,6 +283,12 @@ ImpactResult runImpact(const ImpactScenario& scenario, const ImpactRunOptions& o
                                                             : runModel<3>(scenario, options);
 }
 
+const BisectionRun* BisectionResult::largestSafeRun() const {
+  for (const BisectionRun& r : runs)
+    if (!r.perforated && r.value == largestSafe) return &r;
+  return nullptr;
+}
+
 BisectionResult bisect(const BisectionOptions& o, const std::function<BisectionRun(double)>& evaluate,
                        const std::function<void(const BisectionRun&)>& onRun) {
   BisectionResult result;

@@ -75,6 +75,10 @@ struct BisectionResult {
   double smallestPerforating = std::numeric_limits<double>::quiet_NaN();
   double estimate() const { return 0.5 * (largestSafe + smallestPerforating); }
   std::vector<BisectionRun> runs;  // in the order made
+  // The run that set largestSafe; nullptr where no run did (a trusted bracket's lower end). A run that ended
+  // unsettled at run.max_time took the verdict of its last state, and a longer run may still perforate (spall
+  // shed late from a bulging rear wall): then the limit lies lower than the bracket says.
+  const BisectionRun* largestSafeRun() const;
 };
 
 // Bisection on a monotone outcome (larger values perforate). `evaluate` runs one value. `onRun` is told each
