@@ -190,6 +190,16 @@ TEST_CASE("impact model: a grid offset moves the nodes along the normal and leav
                  "fraction of a cell"));
 }
 
+TEST_CASE("scenario: solver.contact_strain reads per-node (the default) and per-particle, and nothing else") {
+  CHECK(parseScenario(plateScenario(), "plate.toml").solver.contact.strain == ContactStrain::perNode);
+  CHECK(parseScenario(plateScenario(), "plate.toml", {"solver.contact_strain=per-particle"}).solver.contact.strain ==
+        ContactStrain::perParticle);
+  const std::string bad =
+      messageOf([] { parseScenario(plateScenario(), "plate.toml", {"solver.contact_strain=per-cell"}); });
+  CHECK(contains(bad, "contact_strain"));
+  CHECK(contains(bad, "per-particle"));
+}
+
 TEST_CASE("scenario: a bad key or value is an error naming the file, line or flag, and the key") {
   const std::string unknownKey = messageOf([] { parseScenario(plateScenario("frame = 3\n"), "plate.toml"); });
   CHECK(contains(unknownKey, "plate.toml"));

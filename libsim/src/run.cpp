@@ -328,6 +328,7 @@ RunResult run(Solver<D>& solver, const RunOptions& options, const RunHooks<D>& h
         {"bulk_viscosity_linear", o.viscosity.linear},
         {"contact", o.contact.mode == ContactMode::multiField ? "multi-field" : "single-field"},
         {"friction", o.contact.friction},
+        {"contact_strain", o.contact.strain == ContactStrain::perNode ? "per-node" : "per-particle"},
         {"erosion_expansion", o.erosionExpansion},
         {"erosion_sound_speed", o.erosionSoundSpeed},
         {"keep_eroded_mass", o.keepErodedMass}}},

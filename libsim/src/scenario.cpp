@@ -160,6 +160,9 @@ void readSolver(TomlKeys r, SolverOptions& o) {
   o.contact.mode = r.choice<ContactMode>(
       "contact", {{"multi-field", ContactMode::multiField}, {"single-field", ContactMode::singleField}}, o.contact.mode);
   o.contact.friction = r.nonNegative("friction", units::dimensionless, o.contact.friction);
+  o.contact.strain = r.choice<ContactStrain>(
+      "contact_strain", {{"per-node", ContactStrain::perNode}, {"per-particle", ContactStrain::perParticle}},
+      o.contact.strain);
   o.timeStepSafety = r.positive("time_step_safety", units::dimensionless, o.timeStepSafety);
   if (o.timeStepSafety > 1) throw InputError(r.at("time_step_safety"), "above the stability limit", "0 < safety <= 1");
   o.flipFraction = r.nonNegative("flip_fraction", units::dimensionless, o.flipFraction);

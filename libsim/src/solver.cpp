@@ -96,6 +96,10 @@ void Solver<D>::initialise() {
   if (bodies_ > 1) {
     contactDelta_.assign(fields, Vec<D>::Zero());
   }
+  if (bodies_ > 1 && options_.contact.strain == ContactStrain::perParticle && options_.scheme == UpdateSchemeKind::musl)
+    correctedVelocity_.assign(fields, Vec<D>::Zero());
+  else
+    correctedVelocity_.clear();
   trackBoundary_ = false;
   for (auto f : spec_.boundary) trackBoundary_ |= f == BoundaryKind::nonReflecting;
   for (int f = 0; f < 2 * D; ++f)
@@ -394,6 +398,7 @@ void Solver<D>::applyVelocityConditions(bool integrate) {
   for (auto f : spec_.boundary) anyBoundary |= f != BoundaryKind::free;
   const bool contact = B > 1;
   const double mu = options_.contact.friction;
+  const bool keepCorrected = !correctedVelocity_.empty();  // ContactStrain::perParticle
 #pragma omp parallel for schedule(static) num_threads(threads_) if (parallel_)
   for (long n = 0; n < N; ++n) {
     constexpr int kMaxBodies = 16;
@@ -446,7 +451,7 @@ void Solver<D>::applyVelocityConditions(bool integrate) {
         else
           slivers[sliverCount++] = ids[k];
     }
-    if (contactCount > 1 || (contactCount == 1 && sliverCount > 0)) {
+    if ((integrate || !keepCorrected) && (contactCount > 1 || (contactCount == 1 && sliverCount > 0))) {
       Vec<D> total = Vec<D>::Zero();
       for (int k = 0; k < contactCount; ++k) total += scatter_[touching[k] * N + n].gradient;
       // sum_p m_p grad N_I(x_p) points from a body towards the node, i.e. along the body's outward normal at its
@@ -511,10 +516,11 @@ void Solver<D>::applyVelocityConditions(bool integrate) {
       const int b = ids[k];
       const long i = b * N + n;
       if (integrate) velocityChange_[i] = v[b] - velocityChange_[i];
+      if (integrate && keepCorrected) correctedVelocity_[i] = v[b];
       // MUSL remap: where the contact correction acted in this step, the body keeps the corrected velocity. The
       // remapped one re-mixes momenta that FLIP left off the contact constraint, and a strain increment taken
       // from it gained energy (two elastic spheres rebounded with 10 % more than they had).
-      if (integrate || !(contact && (corrected_[i] & kByContact))) velocity_[i] = v[b];
+      if (integrate || keepCorrected || !(contact && (corrected_[i] & kByContact))) velocity_[i] = v[b];
     }
   }
 }
@@ -622,6 +628,18 @@ void Solver<D>::updateStress() {
   // h over each, to the last bit, as division rounds monotonically; one division instead of one per point.
   double fastest = 0.0;
   const bool keptEroded = options_.keepErodedMass;
+  const bool perParticle = !correctedVelocity_.empty();
+  // Whether a node of particle p's stencil (in its body's field) was corrected by the contact in this step.
+  const auto touchesCorrectedNode = [&](int p) {
+    const long off = static_cast<long>(particles_.body[p]) * N;
+    bool touched = false;
+    withStencilSize(ns, [&](auto NS) {
+      forEachWeightRowOf<D, NS>(stencil_[p], strides_, [&](long row, double) {
+        for (int a = 0; a < NS; ++a) touched |= (corrected_[off + row + a] & kByContact) != 0;
+      });
+    });
+    return touched;
+  };
 #pragma omp parallel for schedule(static) reduction(max : fastest) num_threads(threads_) if (parallel_)
   for (long k = 0; k < count; ++k) {
     const int p = order_[static_cast<std::size_t>(k)];
@@ -634,12 +652,14 @@ void Solver<D>::updateStress() {
     double vr = 0;
     const Stencil<D>& st = stencil_[p];
     const StencilGradient<D>& sg = stencilGradient_[p];
+    const Vec<D>* nodeVelocity = velocity_.data();
+    if (perParticle && touchesCorrectedNode(p)) nodeVelocity = correctedVelocity_.data();
     withStencilSize(ns, [&](auto NS) {
       forEachRowOf<D, NS>(st, sg, strides_, [&](long row, double rw, double g1, double g2) {
         // L = sum v g^T; along a row g = (g0 rw, w0 g1, w0 g2), so two sums of v along the row suffice.
         Vec<D> byWeight = Vec<D>::Zero(), byGradient = Vec<D>::Zero();
         for (int a = 0; a < NS; ++a) {
-          const Vec<D>& v = velocity_[off + row + a];
+          const Vec<D>& v = nodeVelocity[off + row + a];
           byWeight += st.w[0][a] * v;
           byGradient += sg.g[0][a] * v;
         }
@@ -783,7 +803,7 @@ template <int D>
 std::size_t Solver<D>::memoryBytes() const {
   const std::size_t grid = scatter_.capacity() * sizeof(ScatterNode<D>) +
                            (velocity_.capacity() + velocityChange_.capacity() + remappedMomentum_.capacity() + contactDelta_.capacity() +
-                            boundaryDelta_.capacity()) *
+                            boundaryDelta_.capacity() + correctedVelocity_.capacity()) *
                                sizeof(Vec<D>) +
                            corrected_.capacity();
   const std::size_t caches = stencil_.capacity() * sizeof(Stencil<D>) +
