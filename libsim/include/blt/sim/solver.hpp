@@ -227,9 +227,9 @@ class Solver {
   std::vector<Vec<D>> velocity_, velocityChange_;
   // The MUSL remap's nodal momenta, apart from scatter_ so that its clearing and scatter stream 24 of 80 bytes.
   std::vector<Vec<D>> remappedMomentum_;
-  std::vector<Vec<D>> contactDelta_, boundaryDelta_;
+  std::vector<Vec<D>> contactDelta_, boundaryDelta_;  // velocity changes made by contact and by dashpots
   // The end-of-step (contact-corrected) nodal velocities, kept through the MUSL remap for ContactStrain::perParticle.
-  std::vector<Vec<D>> correctedVelocity_;  // velocity changes made by contact and by dashpots
+  std::vector<Vec<D>> correctedVelocity_;
   // Per node and body, which of contactDelta_ and boundaryDelta_ hold this step's change (kByContact,
   // kByBoundary); unmarked entries are stale. Few nodes are corrected, so grid to particles reads the deltas
   // only there, and the grid update need not clear them everywhere.
