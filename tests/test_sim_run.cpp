@@ -411,6 +411,91 @@ TEST_CASE("sim: two threads give bit-identical results to one") {
   CHECK(sameState(*serial, *threaded));
 }
 
+TEST_CASE("sim: a stencil holds every node that carries weight, with uGIMP's weight and gradient there, and 2 nodes per axis where it can") {
+  // A block on the fill lattice (quarter points of the cells, where rounding puts the domain's edge on either
+  // side of a node) and the same block with every other point moved off it.
+  const double s = 0.1e-3, h = 2 * s;
+  GridSpec<3> g;
+  g.cellSize = h;
+  g.lower = Vec<3>::Zero();
+  g.upper = Vec<3>(12 * h, 12 * h, 12 * h);
+  g.boundary.fill(BoundaryKind::free);
+  Solver<3> solver(g, {}, std::vector<SolidMaterial>{makeSolidMaterial(blt::parseMaterial(kElasticAluminium, "e", "e"))});
+  BodyFill<3> fill;
+  fill.spacing = s;
+  fillBox<3>(solver.particles(), solver.materials()[0], fill, Vec<3>(2 * h, 2 * h, 2 * h), Vec<3>(10 * h, 10 * h, 10 * h));
+  const std::size_t lattice = solver.particles().size();
+  fillBox<3>(solver.particles(), solver.materials()[0], fill, Vec<3>(2 * h, 2 * h, 2 * h), Vec<3>(10 * h, 10 * h, 10 * h));
+  auto& P = solver.particles();
+  unsigned long seed = 12345;
+  const auto uniform = [&seed] {  // in [-1, 1)
+    seed = seed * 6364136223846793005UL + 1442695040888963407UL;
+    return static_cast<double>(seed >> 11) / 4503599627370496.0 - 1.0;
+  };
+  for (std::size_t p = lattice; p < P.size(); p += 2)
+    for (int a = 0; a < 3; ++a) P.position[p][a] += 0.45 * s * uniform();
+  // And points within a few ulps of a quarter point, where stencilBase rounds down and leaves uGIMP's first node
+  // exactly empty: their stencil starts one node later.
+  const std::size_t nearQuarter = P.size();
+  std::vector<double> emptyFirst;
+  const double halfWidth = 0.5 * s;
+  for (int i = 1; i < 11; ++i) {
+    double x = i * h + halfWidth;
+    for (int u = 0; u < 64; ++u) x = std::nextafter(x, 0.0);
+    for (int u = 0; u < 128; ++u, x = std::nextafter(x, 1.0)) {
+      const int base = stencilBase(ShapeFunctionKind::uGimp, x, h, halfWidth, 13);
+      double w, grad;
+      uGimpNode(x - base * h, h, halfWidth, 1.0 / h, 1.0 / (h * halfWidth), w, grad);
+      if (w == 0 && grad == 0) emptyFirst.push_back(x);
+    }
+  }
+  REQUIRE(!emptyFirst.empty());
+  fillBox<3>(P, solver.materials()[0], fill, Vec<3>(2 * h, 2 * h, 2 * h), Vec<3>(4 * h, 4 * h, 4 * h));
+  for (std::size_t p = nearQuarter, k = 0; p < P.size(); ++p, ++k)
+    P.position[p] = Vec<3>(emptyFirst[k % emptyFirst.size()], emptyFirst[(k / 3) % emptyFirst.size()],
+                           emptyFirst[(k / 7) % emptyFirst.size()]);
+  solver.initialise();
+  solver.computeShapeFunctions();
+
+  const auto& nodes = solver.nodeCounts();
+  const long strides[3] = {1, nodes[0], static_cast<long>(nodes[0]) * nodes[1]};
+  std::size_t compactOnLattice = 0, compactMoved = 0, moved = 0, shifted = 0, mismatches = 0, notCompacted = 0;
+  for (std::size_t p = 0; p < P.size(); ++p) {
+    const Stencil<3>& st = solver.stencils()[p];
+    const StencilGradient<3>& sg = solver.stencilGradients()[p];
+    REQUIRE((st.size == 2 || st.size == 3));
+    const bool wasMoved = p >= lattice && p < nearQuarter && (p - lattice) % 2 == 0;
+    moved += wasMoved;
+    (wasMoved ? compactMoved : compactOnLattice) += st.size == 2;
+    bool compactable = true;
+    for (int a = 0; a < 3; ++a) {
+      const int first = static_cast<int>((st.node / strides[a]) % nodes[a]);
+      const double xi = P.position[p][a] - g.lower[a], lp = P.halfSize[p][a];
+      const int base = stencilBase(ShapeFunctionKind::uGimp, xi, h, lp, nodes[a]);
+      double w[3], grad[3];
+      for (int k = 0; k < 3; ++k) uGimpNode(xi - (base + k) * h, h, lp, 1.0 / h, 1.0 / (h * lp), w[k], grad[k]);
+      compactable &= (w[0] == 0 && grad[0] == 0) || (w[2] == 0 && grad[2] == 0);
+      // Every node of uGIMP's three, with the stencil's weight there (zero off the stencil).
+      for (int k = 0; k < 3; ++k) {
+        const int j = base + k - first;
+        const bool held = j >= 0 && j < st.size;
+        mismatches += (held ? st.w[a][j] : 0.0) != w[k] || (held ? sg.g[a][j] : 0.0) != grad[k];
+      }
+      mismatches += first < base || first + st.size > base + 3;
+      shifted += first > base;
+    }
+    notCompacted += compactable && st.size == 3;
+  }
+  CHECK(mismatches == 0);
+  CHECK(notCompacted == 0);
+  MESSAGE(compactOnLattice, " of ", P.size() - moved, " lattice and near-quarter points and ", compactMoved, " of ", moved,
+          " moved points have 2 nodes per axis; ", shifted, " axes start one node later");
+  CHECK(compactOnLattice > 0);
+  CHECK(shifted > 0);
+  // A moved point has 2 nodes on an axis when its domain lies within one cell: half the positions, 1/8 in 3D.
+  CHECK(compactMoved == doctest::Approx(moved / 8.0).epsilon(0.2));
+}
+
 TEST_CASE("sim: the time step follows seed 001 Eq. 8, safety x cell / (c + |v|)") {
   const auto copper = blt::MaterialLibrary::load().get("cu_ofhc");
   TaylorBarCase c;
@@ -561,6 +646,10 @@ TEST_CASE("sim: blt bench sim --case times only the cases named, and an unknown 
   CHECK(doc["cases"][0]["particle_updates_per_s"].get<double>() > 0);
   CHECK_FALSE(doc["cases"][0]["peak_rss_bytes_per_particle"].is_null());  // the first case run owns the peak
   CHECK(doc["cases"][0]["repeats"] == 1);
+  // The case's cylinder and plate start on the fill lattice, and most of the plate is still there after 50 steps.
+  const double twoNode = doc["cases"][0]["two_node_stencil_fraction"].get<double>();
+  CHECK(twoNode > 0.0);
+  CHECK(twoNode < 1.0);
   // --repeat 3: three timings of a case built anew each time; the reported rate is their median.
   const BltRun three = runBlt("bench sim --quick --case axisymmetric-jc-mg --threads 1 --repeat 3 --json");
   REQUIRE_MESSAGE(three.status == 0, three.output);

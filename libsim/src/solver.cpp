@@ -236,6 +236,25 @@ void Solver<D>::computeShapeFunctions() {
       slabOf_[p] = -1;
       continue;
     }
+    // Two nodes per axis carry weight where the domain [x - lp, x + lp] lies within one cell. On a quarter point
+    // (where the initial lattice puts a point) the domain's edge lies exactly on a node, and the rounding of
+    // stencilBase decides whether the first node or the third carries nothing; where it is the first, the
+    // stencil starts one node later. The stencil stays within base..base + 2, so the slab bins hold.
+    bool compact = ns == kStencil;
+    for (int a = 0; a < D && compact; ++a)
+      compact = (st.w[a][2] == 0.0 && sg.g[a][2] == 0.0) || (st.w[a][0] == 0.0 && sg.g[a][0] == 0.0);
+    st.size = compact || ns == 2 ? 2 : 3;
+    if (compact) {
+      for (int a = 0; a < D; ++a) {
+        if (st.w[a][0] != 0.0 || sg.g[a][0] != 0.0) continue;
+        for (int k = 0; k + 1 < kStencil; ++k) {
+          st.w[a][k] = st.w[a][k + 1];
+          sg.g[a][k] = sg.g[a][k + 1];
+        }
+        st.w[a][kStencil - 1] = sg.g[a][kStencil - 1] = 0.0;
+        node += strides_[a];
+      }
+    }
     st.node = static_cast<int>(node);
   }
   // Counting sort of the active particles by slab.
@@ -316,7 +335,6 @@ void Solver<D>::particlesToGrid() {
   for (long i = 0; i < static_cast<long>(fields); ++i) {
     scatter_[i] = ScatterNode<D>{};
   }
-  const int ns = stencilSize(options_.shapeFunction);
   const bool hoop = D == 2 && options_.axisymmetric;
   const bool gradients = bodies_ > 1;
   scatterByColour([&](int p) {
@@ -333,7 +351,7 @@ void Solver<D>::particlesToGrid() {
         V * (q * Eigen::Matrix<double, D, D>::Identity() - sig.template topLeftCorner<D, D>());
     const Stencil<D>& st = stencil_[p];
     const StencilGradient<D>& sg = stencilGradient_[p];
-    withStencilSize(ns, [&](auto NS) {
+    withStencilSize(st.size, [&](auto NS) {
       forEachRowOf<D, NS>(st, sg, strides_, [&](long row, double rw, double g1, double g2) {
         const double mw = m * rw;
         const Vec<D> mvw = rw * mv;
@@ -536,7 +554,6 @@ void Solver<D>::integrateGrid() {
 template <int D>
 void Solver<D>::gridToParticles() {
   const StageClock clock(stageTimes_.gridToParticles);
-  const int ns = stencilSize(options_.shapeFunction);
   const double dt = dt_;
   const double flip = options_.flipFraction;
   const long N = static_cast<long>(nodeCount_);
@@ -550,7 +567,7 @@ void Solver<D>::gridToParticles() {
     const long off = bodies_ > 1 ? particles_.body[p] * N : 0;
     Vec<D> vGrid = Vec<D>::Zero(), dv = Vec<D>::Zero(), dContact = Vec<D>::Zero(), dBoundary = Vec<D>::Zero();
     const Stencil<D>& st = stencil_[p];
-    withStencilSize(ns, [&](auto NS) {
+    withStencilSize(st.size, [&](auto NS) {
       forEachWeightRowOf<D, NS>(st, strides_, [&](long row, double rw) {
         for (int a = 0; a < NS; ++a) {
           const double w = st.w[0][a] * rw;
@@ -597,12 +614,11 @@ void Solver<D>::remapMomentum() {
   const std::size_t fields = scatter_.size();
 #pragma omp parallel for schedule(static) num_threads(threads_) if (parallel_)
   for (long i = 0; i < static_cast<long>(fields); ++i) remappedMomentum_[i].setZero();
-  const int ns = stencilSize(options_.shapeFunction);
   scatterByColour([&](int p) {
     const long off = bodies_ > 1 ? static_cast<long>(particles_.body[p]) * static_cast<long>(nodeCount_) : 0;
     const Vec<D> mv = particles_.mass[p] * particles_.velocity[p];
     const Stencil<D>& st = stencil_[p];
-    withStencilSize(ns, [&](auto NS) {
+    withStencilSize(st.size, [&](auto NS) {
       forEachWeightRowOf<D, NS>(st, strides_, [&](long row, double rw) {
         const Vec<D> mvw = rw * mv;
         for (int a = 0; a < NS; ++a) remappedMomentum_[off + row + a] += st.w[0][a] * mvw;
@@ -617,7 +633,6 @@ void Solver<D>::remapMomentum() {
 template <int D>
 void Solver<D>::updateStress() {
   const StageClock clock(stageTimes_.stress);
-  const int ns = stencilSize(options_.shapeFunction);
   const double dt = dt_;
   const double h = spec_.cellSize;
   const long N = static_cast<long>(nodeCount_);
@@ -629,11 +644,12 @@ void Solver<D>::updateStress() {
   double fastest = 0.0;
   const bool keptEroded = options_.keepErodedMass;
   const bool perParticle = !correctedVelocity_.empty();
-  // Whether a node of particle p's stencil (in its body's field) was corrected by the contact in this step.
+  // Whether a node of particle p's stencil (in its body's field) that carries weight was corrected by the
+  // contact in this step.
   const auto touchesCorrectedNode = [&](int p) {
     const long off = static_cast<long>(particles_.body[p]) * N;
     bool touched = false;
-    withStencilSize(ns, [&](auto NS) {
+    withStencilSize(stencil_[p].size, [&](auto NS) {
       forEachWeightRowOf<D, NS>(stencil_[p], strides_, [&](long row, double) {
         for (int a = 0; a < NS; ++a) touched |= (corrected_[off + row + a] & kByContact) != 0;
       });
@@ -654,7 +670,7 @@ void Solver<D>::updateStress() {
     const StencilGradient<D>& sg = stencilGradient_[p];
     const Vec<D>* nodeVelocity = velocity_.data();
     if (perParticle && touchesCorrectedNode(p)) nodeVelocity = correctedVelocity_.data();
-    withStencilSize(ns, [&](auto NS) {
+    withStencilSize(st.size, [&](auto NS) {
       forEachRowOf<D, NS>(st, sg, strides_, [&](long row, double rw, double g1, double g2) {
         // L = sum v g^T; along a row g = (g0 rw, w0 g1, w0 g2), so two sums of v along the row suffice.
         Vec<D> byWeight = Vec<D>::Zero(), byGradient = Vec<D>::Zero();
