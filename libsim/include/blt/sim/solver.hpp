@@ -28,12 +28,13 @@ enum class ContactMode { multiField, singleField };
 //   against each other, growing until the energy guard stops the run (142.5 m/s, at 283.5 us).
 // - perParticle: a particle with a node of non-zero weight that the contact corrected in this step takes the
 //   corrected (end-of-step grid) velocities at all its nodes, the velocities that moved it, and the others the
-//   remap's; the remap is then not corrected. T2T2 at 150 m/s: 96.8 % at 100 us and 1.4 % tallied. (The figures
-//   that follow were measured when a zero-weight node of the three per axis counted too; 96.7 % then.) At 0.125 mm and
-//   142.5 m/s it runs to 300 us with nothing swinging at the edge (97.8 %). It takes more energy out of the
-//   plates than perNode, and seed 003's limits rise further from the measured ones: T4 (161.25, 165] m/s against
-//   (150, 153.75] (measured 133.8), T2T2 (168.75, 172.5] against 161.6 (measured 127.8); and the 3D and axisymmetric
-//   runs of the verification impact differ by 7.4 % against 3.2 %. So perNode stays the default.
+//   remap's; the remap is then not corrected. T2T2 at 150 m/s: 96.8 % at 100 us and 1.4 % tallied; at 0.125 mm
+//   and 142.5 m/s it runs to 300 us with nothing swinging at the edge (97.8 %). It takes more energy out of the
+//   plates than perNode, and seed 003's limits rise further from the measured ones: T4 and T2T2 both
+//   (168.75, 172.5] m/s against (150, 153.75] and 161.6 per node (measured 133.8 and 127.8); and the 3D and
+//   axisymmetric runs of the verification impact differ by 7.4 % against 3.2 %. So perNode stays the default.
+//   (The 0.125 mm run and the 7.4 % were measured when zero-weight nodes of a stencil counted too; T4 was then
+//   (161.25, 165].)
 enum class ContactStrain { perNode, perParticle };
 // Boundary of one grid face:
 // - free: nothing imposed (material must stay inside the grid; a particle that leaves it is deactivated);
