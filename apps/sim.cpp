@@ -164,8 +164,8 @@ nlohmann::json timeCase(const std::string& name, const std::string& description,
   const RunResult r = run<D>(solver, ro);
   const StageTimes& after = solver.stageTimes();
   const double n = static_cast<double>(solver.particles().size());
-  // Points whose stencil has 2 nodes per axis (2^D nodes, not 3^D) cost the stages about a third: most are
-  // material still on its initial lattice, so a case's rate depends on how much of it the impact has disturbed.
+  // Points whose stencil has 2 nodes per axis touch 2^D nodes instead of 3^D in each stage: most are material
+  // still on its initial lattice, so a case's rate depends on how much of it the impact has disturbed.
   std::size_t active = 0, twoNode = 0;
   for (std::size_t p = 0; p < solver.particles().size(); ++p)
     if (solver.particles().active[p]) {
@@ -267,7 +267,7 @@ void benchSim(const BenchOptions& o) {
         staged += seconds;
       }
       std::printf("%s, other%s\n", line.c_str(), fmt(" %.0f %%", 100.0 * (wall - staged) / wall).c_str());
-      std::printf("  stencils: %.0f %% of the points on 2 nodes per axis at the end (undisturbed lattice points)\n",
+      std::printf("  stencils: %.0f %% of the points on 2 nodes per axis at the end (mostly undisturbed lattice)\n",
                   100.0 * c["two_node_stencil_fraction"].get<double>());
     }
     std::fflush(stdout);

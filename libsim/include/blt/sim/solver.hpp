@@ -127,8 +127,9 @@ struct EnergyBalance {
 // A particle's shape functions per axis: the weights with the stencil's first node, and apart from them the
 // gradients, which grid to particles and the remap do not read (they stream half the bytes).
 // size: nodes per axis that carry weight, 2 or 3. A uGIMP particle whose domain lies inside one cell along every
-// axis (as every point of material still on its initial lattice, at two particles per cell) touches 2^D nodes,
-// not 3^D: its third weight and gradient are exactly zero on each axis, and the stages skip them.
+// axis touches 2^D nodes, not 3^D: its third weight and gradient are exactly zero on each axis, and the stages
+// skip them. Material still on its initial lattice (two particles per cell) is mostly such, except where the
+// rounding of its position leaves a sliver of weight (1e-30) on a third node.
 template <int D>
 struct Stencil {
   int node = 0;  // linear index of the stencil's first node
