@@ -190,7 +190,7 @@ TEST_CASE("impact model: a grid offset moves the nodes along the normal and leav
                  "fraction of a cell"));
 }
 
-TEST_CASE("scenario: solver.contact_strain reads per-node (the default) and per-particle, and nothing else") {
+TEST_CASE("scenario: solver.contact_strain reads per-node (the default) and per-particle, and nothing else, and per-particle only where it acts") {
   CHECK(parseScenario(plateScenario(), "plate.toml").solver.contact.strain == ContactStrain::perNode);
   CHECK(parseScenario(plateScenario(), "plate.toml", {"solver.contact_strain=per-particle"}).solver.contact.strain ==
         ContactStrain::perParticle);
@@ -198,6 +198,17 @@ TEST_CASE("scenario: solver.contact_strain reads per-node (the default) and per-
       messageOf([] { parseScenario(plateScenario(), "plate.toml", {"solver.contact_strain=per-cell"}); });
   CHECK(contains(bad, "contact_strain"));
   CHECK(contains(bad, "per-particle"));
+  // Where it would change nothing it is refused, naming the key that makes it so.
+  const std::string usl = messageOf([] {
+    parseScenario(plateScenario(), "plate.toml", {"solver.contact_strain=per-particle", "solver.scheme=usl"});
+  });
+  CHECK(contains(usl, "contact_strain"));
+  CHECK(contains(usl, "scheme = usl"));
+  const std::string single = messageOf([] {
+    parseScenario(plateScenario(), "plate.toml", {"solver.contact_strain=per-particle", "solver.contact=single-field"});
+  });
+  CHECK(contains(single, "contact = single-field"));
+  CHECK_NOTHROW(parseScenario(plateScenario(), "plate.toml", {"solver.contact_strain=per-node", "solver.scheme=usl"}));
 }
 
 TEST_CASE("scenario: a bad key or value is an error naming the file, line or flag, and the key") {

@@ -163,6 +163,14 @@ void readSolver(TomlKeys r, SolverOptions& o) {
   o.contact.strain = r.choice<ContactStrain>(
       "contact_strain", {{"per-node", ContactStrain::perNode}, {"per-particle", ContactStrain::perParticle}},
       o.contact.strain);
+  // Under USL the strain already comes from the corrected velocities, and the single field has no contact to
+  // correct: the option would change nothing, and a run would be taken for one made with it.
+  if (o.contact.strain == ContactStrain::perParticle &&
+      (o.scheme == UpdateSchemeKind::usl || o.contact.mode == ContactMode::singleField))
+    throw InputError(r.at("contact_strain"),
+                     std::string("per-particle changes nothing with solver.") +
+                         (o.scheme == UpdateSchemeKind::usl ? "scheme = usl" : "contact = single-field"),
+                     "per-particle with scheme = musl and contact = multi-field; otherwise per-node");
   o.timeStepSafety = r.positive("time_step_safety", units::dimensionless, o.timeStepSafety);
   if (o.timeStepSafety > 1) throw InputError(r.at("time_step_safety"), "above the stability limit", "0 < safety <= 1");
   o.flipFraction = r.nonNegative("flip_fraction", units::dimensionless, o.flipFraction);
