@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <random>
 #include <sstream>
 
 #include "approx.hpp"
@@ -427,13 +428,9 @@ TEST_CASE("sim: a stencil holds every node that carries weight, with uGIMP's wei
   const std::size_t lattice = solver.particles().size();
   fillBox<3>(solver.particles(), solver.materials()[0], fill, Vec<3>(2 * h, 2 * h, 2 * h), Vec<3>(10 * h, 10 * h, 10 * h));
   auto& P = solver.particles();
-  unsigned long seed = 12345;
-  const auto uniform = [&seed] {  // in [-1, 1)
-    seed = seed * 6364136223846793005UL + 1442695040888963407UL;
-    return static_cast<double>(seed >> 11) / 4503599627370496.0 - 1.0;
-  };
+  std::mt19937_64 rng(12345);  // its sequence is fixed by the standard; the top 53 bits give [0, 1)
   for (std::size_t p = lattice; p < P.size(); p += 2)
-    for (int a = 0; a < 3; ++a) P.position[p][a] += 0.45 * s * uniform();
+    for (int a = 0; a < 3; ++a) P.position[p][a] += 0.45 * s * (2.0 * static_cast<double>(rng() >> 11) * 0x1.0p-53 - 1.0);
   // And points within a few ulps of a quarter point, where stencilBase rounds down and leaves uGIMP's first node
   // exactly empty: their stencil starts one node later.
   const std::size_t nearQuarter = P.size();
