@@ -633,7 +633,7 @@ TEST_CASE("sim: bad CLI values are errors naming the flag") {
   CHECK(t.output.find("--threads") != std::string::npos);
 }
 
-TEST_CASE("sim: blt bench sim --case times only the cases named, and an unknown case names the cases there are") {
+TEST_CASE("sim: blt bench sim --case times only the cases named, --disturb moves the points off the lattice, and an unknown case names the cases there are") {
   const BltRun r = runBlt("bench sim --quick --case axisymmetric-jc-mg --threads 1 --json");
   REQUIRE_MESSAGE(r.status == 0, r.output);
   const auto doc = nlohmann::json::parse(r.output);
@@ -665,6 +665,19 @@ TEST_CASE("sim: blt bench sim --case times only the cases named, and an unknown 
   CHECK(c3["stage_seconds"].size() == 7);
   CHECK(staged > 0);
   CHECK(staged <= c3["timed_wall_time_s"].get<double>());
+  CHECK(doc["cases"][0]["disturb_cells"] == 0.0);
+  // --disturb 0.25: every point moved at random by up to a quarter cell per axis before timing. A uGIMP domain
+  // (half a cell wide at 2 points per cell) then lies within one cell, on 2 nodes, with probability 1/2 per
+  // axis: a quarter of the points in 2D, against the undisturbed case's lattice.
+  const BltRun moved = runBlt("bench sim --quick --case axisymmetric-jc-mg --threads 1 --disturb 0.25 --json");
+  REQUIRE_MESSAGE(moved.status == 0, moved.output);
+  const auto cm = nlohmann::json::parse(moved.output)["cases"][0];
+  CHECK(cm["disturb_cells"] == 0.25);
+  CHECK(cm["two_node_stencil_fraction"].get<double>() == doctest::Approx(0.25).epsilon(0.12));
+  CHECK(twoNode > 0.4);
+  const BltRun far = runBlt("bench sim --disturb 0.7");
+  CHECK(far.status != 0);
+  CHECK(far.output.find("--disturb") != std::string::npos);
   const BltRun none = runBlt("bench sim --repeat 0");
   CHECK(none.status != 0);
   CHECK(none.output.find("--repeat") != std::string::npos);
