@@ -1,5 +1,6 @@
 // The solver's run driver, output files, contact and the `blt sim` / `blt bench` command lines (issue 4).
 #include <doctest/doctest.h>
+#include <algorithm>
 
 #include <filesystem>
 #include <fstream>
@@ -412,6 +413,61 @@ TEST_CASE("sim: two threads give bit-identical results to one") {
   CHECK(sameState(*serial, *threaded));
 }
 
+namespace {
+// uGIMP's definition (Bardenhagen and Kober 2004): the weight of node I is the mean of the linear hat function
+// N_I over the particle's domain [x - lp, x + lp], and its gradient is (N_I(x + lp) - N_I(x - lp)) / (2 lp).
+// The hat is linear between the nodes, so the trapezoid rule on the pieces split at the nodes is exact.
+double hat(double y, double node, double h) { return std::max(0.0, 1.0 - std::fabs(y - node) / h); }
+void gimpByDefinition(double x, double lp, double node, double h, double& w, double& g) {
+  double cuts[5] = {x - lp, node - h, node, node + h, x + lp};
+  std::sort(cuts, cuts + 5);
+  double integral = 0;
+  for (int i = 0; i + 1 < 5; ++i) {
+    const double a = std::clamp(cuts[i], x - lp, x + lp), b = std::clamp(cuts[i + 1], x - lp, x + lp);
+    integral += 0.5 * (b - a) * (hat(a, node, h) + hat(b, node, h));
+  }
+  w = integral / (2 * lp);
+  g = (hat(x + lp, node, h) - hat(x - lp, node, h)) / (2 * lp);
+}
+}  // namespace
+
+TEST_CASE("sim: uGIMP's branch-free stencil equals the function's definition and the per-node form, zeros exactly alike") {
+  const double h = 0.2e-3;
+  std::mt19937_64 rng(20261207);  // fixed sequence; the top 53 bits give [0, 1)
+  const auto uniform = [&] { return static_cast<double>(rng() >> 11) * 0x1.0p-53; };
+  std::size_t compared = 0, zeros = 0, badDefinition = 0, badNode = 0, badZero = 0, badSum = 0;
+  for (double lpCells : {0.05, 0.25, 0.5}) {
+    const double lp = lpCells * h;
+    for (int i = 0; i < 20000; ++i) {
+      // Mostly anywhere in a 10-cell grid, some on the quarter points and node faces where rounding decides.
+      double xi = lp + uniform() * (10 * h - 2 * lp);
+      if (i % 4 == 0) xi = (1 + static_cast<int>(uniform() * 8)) * h + (i % 8 == 0 ? lp : -lp);
+      const int base = stencilBase(ShapeFunctionKind::uGimp, xi, h, lp, 11);
+      double w[3], g[3];
+      uGimpStencil(xi, h, lp, base, 1.0 / (h * lp), w, g);
+      double sum = 0;
+      for (int k = 0; k < 3; ++k) {
+        double wd, gd, wn, gn;
+        gimpByDefinition(xi, lp, (base + k) * h, h, wd, gd);
+        uGimpNode(xi - (base + k) * h, h, lp, 1.0 / h, 1.0 / (h * lp), wn, gn);
+        badDefinition += std::fabs(w[k] - wd) > 1e-9 || std::fabs(g[k] - gd) > 1e-9 / h;
+        badNode += std::fabs(w[k] - wn) > 1e-12 || std::fabs(g[k] - gn) > 1e-12 / h;
+        badZero += (w[k] == 0) != (wn == 0) || (wn == 0 && (g[k] != 0 || gn != 0));
+        zeros += w[k] == 0;
+        sum += w[k];
+        ++compared;
+      }
+      badSum += std::fabs(sum - 1.0) > 1e-14;
+    }
+  }
+  MESSAGE(compared, " node values compared, ", zeros, " exactly zero");
+  CHECK(zeros > 0);
+  CHECK(badDefinition == 0);
+  CHECK(badNode == 0);
+  CHECK(badZero == 0);
+  CHECK(badSum == 0);
+}
+
 TEST_CASE("sim: a stencil holds every node that carries weight, with uGIMP's weight and gradient there, and 2 nodes per axis where it can") {
   // A block on the fill lattice (quarter points of the cells, where rounding puts the domain's edge on either
   // side of a node) and the same block with every other point moved off it.
@@ -472,11 +528,14 @@ TEST_CASE("sim: a stencil holds every node that carries weight, with uGIMP's wei
       double w[3], grad[3];
       for (int k = 0; k < 3; ++k) uGimpNode(xi - (base + k) * h, h, lp, 1.0 / h, 1.0 / (h * lp), w[k], grad[k]);
       compactable &= (w[0] == 0 && grad[0] == 0) || (w[2] == 0 && grad[2] == 0);
-      // Every node of uGIMP's three, with the stencil's weight there (zero off the stencil).
+      // Every node of uGIMP's three, with the stencil's weight there (zero off the stencil): exactly zero where
+      // uGimpNode's is, else equal to rounding (the solver evaluates the same function in another form).
       for (int k = 0; k < 3; ++k) {
         const int j = base + k - first;
         const bool held = j >= 0 && j < st.size;
-        mismatches += (held ? st.w[a][j] : 0.0) != w[k] || (held ? sg.g[a][j] : 0.0) != grad[k];
+        const double sw = held ? st.w[a][j] : 0.0, sgrad = held ? sg.g[a][j] : 0.0;
+        mismatches += (sw == 0) != (w[k] == 0) || (w[k] == 0 && sgrad != 0) || std::fabs(sw - w[k]) > 1e-12 ||
+                      std::fabs(sgrad - grad[k]) > 1e-12 / h;
       }
       mismatches += first < base || first + st.size > base + 3;
       shifted += first > base;

@@ -222,11 +222,15 @@ void Solver<D>::computeShapeFunctions() {
       xi = std::clamp(xi, lp, len - lp - 1e-12 * h);
       const int base = stencilBase(kind, xi, h, lp, nodes_[a]);
       const double invHLp = kind == ShapeFunctionKind::linear ? 0.0 : 1.0 / (h * lp);
-      for (int k = 0; k < kStencil; ++k) {
-        if (k < ns)
-          stencilNode(kind, xi, h, lp, invH, invHLp, base + k, st.w[a][k], sg.g[a][k]);
-        else
-          st.w[a][k] = sg.g[a][k] = 0.0;
+      if (kind == ShapeFunctionKind::uGimp) {
+        uGimpStencil(xi, h, lp, base, invHLp, st.w[a], sg.g[a]);
+      } else {
+        for (int k = 0; k < kStencil; ++k) {
+          if (k < ns)
+            stencilNode(kind, xi, h, lp, invH, invHLp, base + k, st.w[a][k], sg.g[a][k]);
+          else
+            st.w[a][k] = sg.g[a][k] = 0.0;
+        }
       }
       node += base * strides_[a];
       if (a == slabAxis_) slabOf_[p] = base / 2;

@@ -8,6 +8,9 @@
 // loops have one shape; the linear function leaves the third weight zero.
 
 #include <cmath>
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 namespace blt::sim {
 
@@ -47,6 +50,41 @@ inline void uGimpNode(double d, double h, double lp, double invH, double invHLp,
     w = 0.0;
     g = 0.0;
   }
+}
+
+// max(x, 0) as one instruction: GCC compiles std::max(x, 0.0) to a compare and a branch, which here is taken at
+// random.
+inline double positivePart(double x) {
+#if defined(__SSE2__)
+  return _mm_cvtsd_f64(_mm_max_sd(_mm_set_sd(x), _mm_setzero_pd()));
+#else
+  return x > 0 ? x : 0.0;
+#endif
+}
+
+// uGIMP's weights and gradients at the three nodes base, base + 1, base + 2 for coordinate xi (relative to node 0),
+// where the particle's domain [xi - lp, xi + lp] lies within them (stencilBase's base). The same function as
+// uGimpNode, in a form without branches: disturbed material puts each node in a different piece of uGimpNode at
+// random, and the mispredicted branches cost more than the arithmetic (the 3D benchmark with points moved by a
+// quarter cell spent 1.05 s in this stage with uGimpNode and 0.63 s with this form, 2 threads). For an outer node at distance d >= lp,
+// w = (r^2 - e^2) / (4 h lp) with r = max(h + lp - d, 0) and e = max(h - lp - d, 0): the hat function's integral
+// over the domain, which is uGimpNode's third piece where e = 0 and its linear piece where e > 0; the middle node
+// takes what the outer two leave (partition of unity). An outer node is exactly zero exactly where uGimpNode's is
+// (d >= h + lp, compared alike), so the stencil's 2-node compaction is unchanged; other values agree with
+// uGimpNode to rounding.
+inline void uGimpStencil(double xi, double h, double lp, int base, double invHLp, double w[3], double g[3]) {
+  const double outer = h + lp, inner = h - lp;
+  const double dFirst = xi - base * h;               // >= lp, up to rounding
+  const double dLast = -(xi - (base + 2) * h);       // > h - lp
+  const double rFirst = positivePart(outer - dFirst), eFirst = positivePart(inner - dFirst);
+  const double rLast = positivePart(outer - dLast), eLast = positivePart(inner - dLast);
+  const double quarter = 0.25 * invHLp, half = 0.5 * invHLp;
+  w[0] = (rFirst - eFirst) * (rFirst + eFirst) * quarter;
+  g[0] = -(rFirst - eFirst) * half;
+  w[2] = (rLast - eLast) * (rLast + eLast) * quarter;
+  g[2] = (rLast - eLast) * half;
+  w[1] = 1.0 - w[0] - w[2];
+  g[1] = -(g[0] + g[2]);
 }
 
 // Nodes per axis that a particle touches.
