@@ -56,7 +56,9 @@ constexpr long kReorderInterval = 25;
 // momentum exchange of the contact correction there (a sliver; see correctSlivers).
 constexpr double kContactVolumeFraction = 0.05;
 // Bits of corrected_: the node's velocity was changed by the contact correction, by the dashpots.
-constexpr std::uint8_t kByContact = 1, kByBoundary = 2;
+// kBySliver: changed by the sliver correction only (tallied as contact work, but not a node whose corrected
+// velocity the MUSL remap keeps).
+constexpr std::uint8_t kByContact = 1, kByBoundary = 2, kBySliver = 4;
 
 // Adds the wall time of its scope to a stage's total.
 class StageClock {
@@ -421,7 +423,10 @@ void Solver<D>::applyVelocityConditions(bool integrate) {
   const bool contact = B > 1;
   const double mu = options_.contact.friction;
   const bool keepCorrected = !correctedVelocity_.empty();  // ContactStrain::perParticle
-#pragma omp parallel for schedule(static) num_threads(threads_) if (parallel_)
+  // USL takes the strain increment from these velocities, MUSL from those of the remap (this function again).
+  const bool strainFromIntegration = options_.scheme == UpdateSchemeKind::usl;
+  double strainWork = 0;
+#pragma omp parallel for schedule(static) reduction(+ : strainWork) num_threads(threads_) if (parallel_)
   for (long n = 0; n < N; ++n) {
     constexpr int kMaxBodies = 16;
     Vec<D> v[kMaxBodies];
@@ -491,16 +496,14 @@ void Solver<D>::applyVelocityConditions(bool integrate) {
         const double len = g.norm();
         normal[b] = len > 0 ? Vec<D>(g / len) : Vec<D>::Zero();
       }
+      Vec<D> before[kMaxBodies];
+      if (integrate)
+        for (int k = 0; k < count; ++k) before[ids[k]] = v[ids[k]];
       if (contactCount > 1) {
-        Vec<D> before[kMaxBodies];
-        for (int k = 0; k < contactCount; ++k) before[touching[k]] = v[touching[k]];
         correctContact<D>(v, m, normal, touching, contactCount, mu);
         if (integrate)
-          for (int k = 0; k < contactCount; ++k) {
-            const long i = touching[k] * N + n;
-            contactDelta_[i] = v[touching[k]] - before[touching[k]];
-            if (!contactDelta_[i].isZero(0.0)) corrected_[i] |= kByContact;
-          }
+          for (int k = 0; k < contactCount; ++k)
+            if (!(v[touching[k]] - before[touching[k]]).isZero(0.0)) corrected_[touching[k] * N + n] |= kByContact;
       }
       if (sliverCount > 0) {
         int dominant = touching[0];
@@ -521,6 +524,14 @@ void Solver<D>::applyVelocityConditions(bool integrate) {
         const Vec<D> taken = correctSlivers<D>(v, m, momentumVelocity, slivers, sliverCount, p / mt, -normal[dominant]);
         for (int k = 0; k < contactCount; ++k) v[touching[k]] -= taken / mt;
       }
+      // The work of both corrections is tallied on the particles (gridToParticles) from the change they made here.
+      if (integrate)
+        for (int k = 0; k < count; ++k) {
+          const long i = ids[k] * N + n;
+          contactDelta_[i] = v[ids[k]] - before[ids[k]];
+          if (!(corrected_[i] & kByContact) && !contactDelta_[i].isZero(0.0)) corrected_[i] |= kBySliver;
+          if (strainFromIntegration) strainWork -= dt * scatter_[i].force.dot(contactDelta_[i]);
+        }
     }
     if (anyBoundary) {
       for (int k = 0; k < count; ++k) {
@@ -543,8 +554,14 @@ void Solver<D>::applyVelocityConditions(bool integrate) {
       // remapped one re-mixes momenta that FLIP left off the contact constraint, and a strain increment taken
       // from it gained energy (two elastic spheres rebounded with 10 % more than they had).
       if (integrate || keepCorrected || !(contact && (corrected_[i] & kByContact))) velocity_[i] = v[b];
+      if (!integrate && contact && !keepCorrected) {
+        Vec<D> plain = remappedMomentum_[i] / m[b];
+        if (anyBoundary) applyFaceConditions<D>(plain, spec_.boundary, index, nodes_, 0.0, 0.0);
+        strainWork -= dt * scatter_[i].force.dot(velocity_[i] - plain);
+      }
     }
   }
+  contactDissipation_ -= strainWork;
 }
 
 template <int D>
@@ -579,7 +596,7 @@ void Solver<D>::gridToParticles() {
           vGrid += w * velocity_[i];
           dv += w * velocityChange_[i];
           if (corrections && corrected_[i]) {
-            if (corrected_[i] & kByContact) dContact += w * contactDelta_[i];
+            if (corrected_[i] & (kByContact | kBySliver)) dContact += w * contactDelta_[i];
             if (corrected_[i] & kByBoundary) dBoundary += w * boundaryDelta_[i];
           }
         }
@@ -645,7 +662,7 @@ void Solver<D>::updateStress() {
   const BulkViscosity visc = options_.viscosity;
   // The fastest signal (sound speed plus particle speed) sets the next step: h over its maximum is the minimum of
   // h over each, to the last bit, as division rounds monotonically; one division instead of one per point.
-  double fastest = 0.0;
+  double fastest = 0.0, strainWork = 0.0;
   const bool keptEroded = options_.keepErodedMass;
   const bool perParticle = !correctedVelocity_.empty();
   // Whether a node of particle p's stencil (in its body's field) that carries weight was corrected by the
@@ -660,7 +677,7 @@ void Solver<D>::updateStress() {
     });
     return touched;
   };
-#pragma omp parallel for schedule(static) reduction(max : fastest) num_threads(threads_) if (parallel_)
+#pragma omp parallel for schedule(static) reduction(max : fastest) reduction(+ : strainWork) num_threads(threads_) if (parallel_)
   for (long k = 0; k < count; ++k) {
     const int p = order_[static_cast<std::size_t>(k)];
     if (keptEroded && particles_.failed[p] == kEroded) {  // a stress-free mass point: only its speed limits the step
@@ -668,28 +685,40 @@ void Solver<D>::updateStress() {
       continue;
     }
     const long off = bodies_ > 1 ? particles_.body[p] * N : 0;
-    Mat3 L = Mat3::Zero();
-    double vr = 0;
     const Stencil<D>& st = stencil_[p];
     const StencilGradient<D>& sg = stencilGradient_[p];
-    const Vec<D>* nodeVelocity = velocity_.data();
-    if (perParticle && touchesCorrectedNode(p)) nodeVelocity = correctedVelocity_.data();
-    withStencilSize(st.size, [&](auto NS) {
-      forEachRowOf<D, NS>(st, sg, strides_, [&](long row, double rw, double g1, double g2) {
-        // L = sum v g^T; along a row g = (g0 rw, w0 g1, w0 g2), so two sums of v along the row suffice.
-        Vec<D> byWeight = Vec<D>::Zero(), byGradient = Vec<D>::Zero();
-        for (int a = 0; a < NS; ++a) {
-          const Vec<D>& v = nodeVelocity[off + row + a];
-          byWeight += st.w[0][a] * v;
-          byGradient += sg.g[0][a] * v;
-        }
-        L.template block<D, 1>(0, 0) += rw * byGradient;
-        L.template block<D, 1>(0, 1) += g1 * byWeight;
-        if constexpr (D == 3) L.template block<D, 1>(0, D - 1) += g2 * byWeight;
-        if constexpr (D == 2) vr += rw * byWeight[0];
+    const auto velocityGradient = [&](const Vec<D>* nodeVelocity) {
+      Mat3 L = Mat3::Zero();
+      double vr = 0;
+      withStencilSize(st.size, [&](auto NS) {
+        forEachRowOf<D, NS>(st, sg, strides_, [&](long row, double rw, double g1, double g2) {
+          // L = sum v g^T; along a row g = (g0 rw, w0 g1, w0 g2), so two sums of v along the row suffice.
+          Vec<D> byWeight = Vec<D>::Zero(), byGradient = Vec<D>::Zero();
+          for (int a = 0; a < NS; ++a) {
+            const Vec<D>& v = nodeVelocity[off + row + a];
+            byWeight += st.w[0][a] * v;
+            byGradient += sg.g[0][a] * v;
+          }
+          L.template block<D, 1>(0, 0) += rw * byGradient;
+          L.template block<D, 1>(0, 1) += g1 * byWeight;
+          if constexpr (D == 3) L.template block<D, 1>(0, D - 1) += g2 * byWeight;
+          if constexpr (D == 2) vr += rw * byWeight[0];
+        });
       });
-    });
-    if (hoop) L(2, 2) = vr / hoopRadius(p);
+      if (hoop) L(2, 2) = vr / hoopRadius(p);
+      return L;
+    };
+    Mat3 L;
+    if (perParticle && touchesCorrectedNode(p)) {
+      L = velocityGradient(correctedVelocity_.data());
+      // The part of this step's stress power that the corrected velocities make, paired with the stress the
+      // internal forces of this step came from (see EnergyBalance).
+      const Mat3 extra = L - velocityGradient(velocity_.data());
+      strainWork += particles_.volume[p] * dt *
+                    (particles_.stress[p] - particles_.viscousPressure[p] * Mat3::Identity()).cwiseProduct(extra).sum();
+    } else {
+      L = velocityGradient(velocity_.data());
+    }
 
     Mat3& F = particles_.deformationGradient[p];
     F = (Mat3::Identity() + dt * L) * F;
@@ -745,6 +774,7 @@ void Solver<D>::updateStress() {
     const double cEff = u.soundSpeed + (q > 0 ? 2.0 * visc.quadratic * h * std::fabs(trD) : 0.0);
     fastest = std::max(fastest, cEff + particles_.velocity[p].norm());
   }
+  contactDissipation_ -= strainWork;
   time_ += dt_;
   ++steps_;
   const double dtMin = h / fastest;
