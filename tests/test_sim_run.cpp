@@ -563,40 +563,41 @@ TEST_CASE("sim: a stencil holds every node that carries weight, with uGIMP's wei
   for (std::size_t p = 0; p < P.size(); ++p) {
     const Stencil<3>& st = solver.stencils()[p];
     const StencilGradient<3>& sg = solver.stencilGradients()[p];
-    REQUIRE((st.size == 2 || st.size == 3));
     const bool wasMoved = p >= lattice && p < nearQuarter && (p - lattice) % 2 == 0;
     moved += wasMoved;
-    (wasMoved ? compactMoved : compactOnLattice) += st.size == 2;
-    bool compactable = true;
     for (int a = 0; a < 3; ++a) {
+      const int size = st.size[a];
+      REQUIRE((size == 2 || size == 3));
+      (wasMoved ? compactMoved : compactOnLattice) += size == 2;
       const int first = static_cast<int>((st.node / strides[a]) % nodes[a]);
       const double xi = P.position[p][a] - g.lower[a], lp = P.halfSize[p][a];
       const int base = stencilBase(ShapeFunctionKind::uGimp, xi, h, lp, nodes[a]);
       double w[3], grad[3];
       for (int k = 0; k < 3; ++k) uGimpNode(xi - (base + k) * h, h, lp, 1.0 / h, 1.0 / (h * lp), w[k], grad[k]);
-      compactable &= (w[0] == 0 && grad[0] == 0) || (w[2] == 0 && grad[2] == 0);
+      const bool compactable = (w[0] == 0 && grad[0] == 0) || (w[2] == 0 && grad[2] == 0);
       // Every node of uGIMP's three, with the stencil's weight there (zero off the stencil): exactly zero where
       // uGimpNode's is, else equal to rounding (the solver evaluates the same function in another form).
       for (int k = 0; k < 3; ++k) {
         const int j = base + k - first;
-        const bool held = j >= 0 && j < st.size;
+        const bool held = j >= 0 && j < size;
         const double sw = held ? st.w[a][j] : 0.0, sgrad = held ? sg.g[a][j] : 0.0;
         mismatches += (sw == 0) != (w[k] == 0) || (w[k] == 0 && sgrad != 0) || std::fabs(sw - w[k]) > 1e-12 ||
                       std::fabs(sgrad - grad[k]) > 1e-12 / h;
       }
-      mismatches += first < base || first + st.size > base + 3;
+      mismatches += first < base || first + size > base + 3;
       shifted += first > base;
+      notCompacted += compactable && size == 3;
     }
-    notCompacted += compactable && st.size == 3;
   }
   CHECK(mismatches == 0);
   CHECK(notCompacted == 0);
-  MESSAGE(compactOnLattice, " of ", P.size() - moved, " lattice and near-quarter points and ", compactMoved, " of ", moved,
-          " moved points have 2 nodes per axis; ", shifted, " axes start one node later");
+  MESSAGE(compactOnLattice, " of ", 3 * (P.size() - moved), " axes of lattice and near-quarter points and ", compactMoved,
+          " of ", 3 * moved, " axes of moved points have 2 nodes; ", shifted, " axes start one node later");
   CHECK(compactOnLattice > 0);
   CHECK(shifted > 0);
-  // A moved point has 2 nodes on an axis when its domain lies within one cell: half the positions, 1/8 in 3D.
-  CHECK(compactMoved == doctest::Approx(moved / 8.0).epsilon(0.2));
+  // A moved point has 2 nodes on an axis when its domain (half a cell wide) lies within one cell: half the
+  // positions it can take (uniform over +-0.225 cell about a quarter point).
+  CHECK(static_cast<double>(compactMoved) == relApprox(1.5 * static_cast<double>(moved), 0.1));
 }
 
 TEST_CASE("sim: the time step follows seed 001 Eq. 8, safety x cell / (c + |v|)") {
@@ -780,6 +781,8 @@ TEST_CASE("sim: blt bench sim --case times only the cases named, --disturb moves
   const auto cm = nlohmann::json::parse(moved.output)["cases"][0];
   CHECK(cm["disturb_cells"] == 0.25);
   CHECK(cm["two_node_stencil_fraction"].get<double>() == relApprox(0.25, 0.12));
+  // Each axis on its own: 2 or 3 nodes with probability 1/2 each, 2.5 x 2.5 nodes per point on average.
+  CHECK(cm["mean_stencil_nodes"].get<double>() == relApprox(6.25, 0.05));
   CHECK(twoNode > 0.4);
   const BltRun far = runBlt("bench sim --disturb 0.7");
   CHECK(far.status != 0);

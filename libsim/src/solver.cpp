@@ -242,23 +242,24 @@ void Solver<D>::computeShapeFunctions() {
       slabOf_[p] = -1;
       continue;
     }
-    // Two nodes per axis carry weight where the domain [x - lp, x + lp] lies within one cell. On a quarter point
-    // (where the initial lattice puts a point) the domain's edge lies exactly on a node, and the rounding of
-    // stencilBase decides whether the first node or the third carries nothing; where it is the first, the
-    // stencil starts one node later. The stencil stays within base..base + 2, so the slab bins hold.
-    bool compact = ns == kStencil;
-    for (int a = 0; a < D && compact; ++a)
-      compact = (st.w[a][2] == 0.0 && sg.g[a][2] == 0.0) || (st.w[a][0] == 0.0 && sg.g[a][0] == 0.0);
-    st.size = compact || ns == 2 ? 2 : 3;
-    if (compact) {
-      for (int a = 0; a < D; ++a) {
-        if (st.w[a][0] != 0.0 || sg.g[a][0] != 0.0) continue;
+    // Two nodes on an axis carry weight where the domain [x - lp, x + lp] lies within one cell along it, and the
+    // stages skip the third (each axis on its own: a point off the fill lattice has 2 on about half its axes). On a
+    // quarter point (where the initial lattice puts a point) the domain's edge lies exactly on a node, and the
+    // rounding of stencilBase decides whether the first node or the third carries nothing; where it is the first,
+    // the stencil starts one node later on that axis. The stencil stays within base..base + 2, so the slab bins hold.
+    for (int a = 0; a < D; ++a) {
+      st.size[a] = static_cast<std::uint8_t>(ns);
+      if (ns != kStencil) continue;
+      if (st.w[a][0] == 0.0 && sg.g[a][0] == 0.0) {
         for (int k = 0; k + 1 < kStencil; ++k) {
           st.w[a][k] = st.w[a][k + 1];
           sg.g[a][k] = sg.g[a][k + 1];
         }
         st.w[a][kStencil - 1] = sg.g[a][kStencil - 1] = 0.0;
         node += strides_[a];
+        st.size[a] = 2;
+      } else if (st.w[a][2] == 0.0 && sg.g[a][2] == 0.0) {
+        st.size[a] = 2;
       }
     }
     st.node = static_cast<int>(node);
@@ -281,41 +282,62 @@ void Solver<D>::computeShapeFunctions() {
 // below work on a row's factors once and touch each node with a few products of w0[a] and g0[a].
 // Calls f(rowNode, w, g1, g2) for every row of the stencil: rowNode is the row's first node, w the product of
 // the weights on axes 1..D-1, gk the same product with axis k's gradient in place of its weight (g2 = 0 in
-// 2D). NS nodes per axis, known at compile time so that the loops unroll.
+// 2D). Sizes: the nodes per axis (Sizes::n0, n1, n2), known at compile time so that the loops unroll.
 // A rule for the hot loops: GCC assembles a small vector from separately computed scalars (or a vector with one
 // element changed) on the stack, and the wide load after the narrow stores stalls store forwarding, which cost
 // the scatter 30 to 60 %. Keep such values scalar, or write whole-vector expressions (see particlesToGrid).
-template <int D, int NS, class F>
-inline void forEachRowOf(const Stencil<D>& st, const StencilGradient<D>& sg, const Eigen::Array<long, D, 1>& strides,
-                         F&& f) {
+template <int N0, int N1, int N2>
+struct StencilSizes {
+  static constexpr int n0 = N0, n1 = N1, n2 = N2;
+};
+
+template <int D, class Sizes, class F>
+inline void forEachRowOf(Sizes, const Stencil<D>& st, const StencilGradient<D>& sg,
+                         const Eigen::Array<long, D, 1>& strides, F&& f) {
   if constexpr (D == 3) {
-    for (int c = 0; c < NS; ++c)
-      for (int b = 0; b < NS; ++b)
+    for (int c = 0; c < Sizes::n2; ++c)
+      for (int b = 0; b < Sizes::n1; ++b)
         f(st.node + c * strides[2] + b * strides[1], st.w[1][b] * st.w[2][c], sg.g[1][b] * st.w[2][c],
           st.w[1][b] * sg.g[2][c]);
   } else {
-    for (int b = 0; b < NS; ++b) f(st.node + b * strides[1], st.w[1][b], sg.g[1][b], 0.0);
+    for (int b = 0; b < Sizes::n1; ++b) f(st.node + b * strides[1], st.w[1][b], sg.g[1][b], 0.0);
   }
 }
 
 // The same rows for the stages that need only the weights: f(rowNode, w).
-template <int D, int NS, class F>
-inline void forEachWeightRowOf(const Stencil<D>& st, const Eigen::Array<long, D, 1>& strides, F&& f) {
+template <int D, class Sizes, class F>
+inline void forEachWeightRowOf(Sizes, const Stencil<D>& st, const Eigen::Array<long, D, 1>& strides, F&& f) {
   if constexpr (D == 3) {
-    for (int c = 0; c < NS; ++c)
-      for (int b = 0; b < NS; ++b) f(st.node + c * strides[2] + b * strides[1], st.w[1][b] * st.w[2][c]);
+    for (int c = 0; c < Sizes::n2; ++c)
+      for (int b = 0; b < Sizes::n1; ++b) f(st.node + c * strides[2] + b * strides[1], st.w[1][b] * st.w[2][c]);
   } else {
-    for (int b = 0; b < NS; ++b) f(st.node + b * strides[1], st.w[1][b]);
+    for (int b = 0; b < Sizes::n1; ++b) f(st.node + b * strides[1], st.w[1][b]);
   }
 }
 
-// Runs stage<NS>() with the stencil size of the shape function as a compile-time constant.
-template <class F>
-inline void withStencilSize(int ns, F&& stage) {
-  if (ns == 3)
-    stage(std::integral_constant<int, 3>{});
-  else
-    stage(std::integral_constant<int, 2>{});
+// Runs stage(StencilSizes<...>{}) with the stencil's nodes per axis as compile-time constants.
+template <int D, class F>
+inline void withStencilSizes(const Stencil<D>& st, F&& stage) {
+  const int code = (st.size[0] == 3) | (st.size[1] == 3) << 1 | (D == 3 && st.size[D - 1] == 3) << 2;
+  if constexpr (D == 3) {
+    switch (code) {
+      case 0: return stage(StencilSizes<2, 2, 2>{});
+      case 1: return stage(StencilSizes<3, 2, 2>{});
+      case 2: return stage(StencilSizes<2, 3, 2>{});
+      case 3: return stage(StencilSizes<3, 3, 2>{});
+      case 4: return stage(StencilSizes<2, 2, 3>{});
+      case 5: return stage(StencilSizes<3, 2, 3>{});
+      case 6: return stage(StencilSizes<2, 3, 3>{});
+      default: return stage(StencilSizes<3, 3, 3>{});
+    }
+  } else {
+    switch (code) {
+      case 0: return stage(StencilSizes<2, 2, 1>{});
+      case 1: return stage(StencilSizes<3, 2, 1>{});
+      case 2: return stage(StencilSizes<2, 3, 1>{});
+      default: return stage(StencilSizes<3, 3, 1>{});
+    }
+  }
 }
 
 // Runs body(p) for every active particle, slab parity by parity, so that scatters from concurrent threads
@@ -357,8 +379,9 @@ void Solver<D>::particlesToGrid() {
         V * (q * Eigen::Matrix<double, D, D>::Identity() - sig.template topLeftCorner<D, D>());
     const Stencil<D>& st = stencil_[p];
     const StencilGradient<D>& sg = stencilGradient_[p];
-    withStencilSize(st.size, [&](auto NS) {
-      forEachRowOf<D, NS>(st, sg, strides_, [&](long row, double rw, double g1, double g2) {
+    withStencilSizes(st, [&](auto sizes) {
+      constexpr int NS = decltype(sizes)::n0;
+      forEachRowOf<D>(sizes, st, sg, strides_, [&](long row, double rw, double g1, double g2) {
         const double mw = m * rw;
         const Vec<D> mvw = rw * mv;
         const Vec<D> fx = rw * minusVs.col(0);
@@ -588,8 +611,9 @@ void Solver<D>::gridToParticles() {
     const long off = bodies_ > 1 ? particles_.body[p] * N : 0;
     Vec<D> vGrid = Vec<D>::Zero(), dv = Vec<D>::Zero(), dContact = Vec<D>::Zero(), dBoundary = Vec<D>::Zero();
     const Stencil<D>& st = stencil_[p];
-    withStencilSize(st.size, [&](auto NS) {
-      forEachWeightRowOf<D, NS>(st, strides_, [&](long row, double rw) {
+    withStencilSizes(st, [&](auto sizes) {
+      constexpr int NS = decltype(sizes)::n0;
+      forEachWeightRowOf<D>(sizes, st, strides_, [&](long row, double rw) {
         for (int a = 0; a < NS; ++a) {
           const double w = st.w[0][a] * rw;
           const long i = off + row + a;
@@ -639,8 +663,9 @@ void Solver<D>::remapMomentum() {
     const long off = bodies_ > 1 ? static_cast<long>(particles_.body[p]) * static_cast<long>(nodeCount_) : 0;
     const Vec<D> mv = particles_.mass[p] * particles_.velocity[p];
     const Stencil<D>& st = stencil_[p];
-    withStencilSize(st.size, [&](auto NS) {
-      forEachWeightRowOf<D, NS>(st, strides_, [&](long row, double rw) {
+    withStencilSizes(st, [&](auto sizes) {
+      constexpr int NS = decltype(sizes)::n0;
+      forEachWeightRowOf<D>(sizes, st, strides_, [&](long row, double rw) {
         const Vec<D> mvw = rw * mv;
         for (int a = 0; a < NS; ++a) remappedMomentum_[off + row + a] += st.w[0][a] * mvw;
       });
@@ -670,8 +695,9 @@ void Solver<D>::updateStress() {
   const auto touchesCorrectedNode = [&](int p) {
     const long off = static_cast<long>(particles_.body[p]) * N;
     bool touched = false;
-    withStencilSize(stencil_[p].size, [&](auto NS) {
-      forEachWeightRowOf<D, NS>(stencil_[p], strides_, [&](long row, double) {
+    withStencilSizes(stencil_[p], [&](auto sizes) {
+      constexpr int NS = decltype(sizes)::n0;
+      forEachWeightRowOf<D>(sizes, stencil_[p], strides_, [&](long row, double) {
         for (int a = 0; a < NS; ++a) touched |= (corrected_[off + row + a] & kByContact) != 0;
       });
     });
@@ -690,8 +716,9 @@ void Solver<D>::updateStress() {
     const auto velocityGradient = [&](const Vec<D>* nodeVelocity) {
       Mat3 L = Mat3::Zero();
       double vr = 0;
-      withStencilSize(st.size, [&](auto NS) {
-        forEachRowOf<D, NS>(st, sg, strides_, [&](long row, double rw, double g1, double g2) {
+      withStencilSizes(st, [&](auto sizes) {
+        constexpr int NS = decltype(sizes)::n0;
+        forEachRowOf<D>(sizes, st, sg, strides_, [&](long row, double rw, double g1, double g2) {
           // L = sum v g^T; along a row g = (g0 rw, w0 g1, w0 g2), so two sums of v along the row suffice.
           Vec<D> byWeight = Vec<D>::Zero(), byGradient = Vec<D>::Zero();
           for (int a = 0; a < NS; ++a) {
