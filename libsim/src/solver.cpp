@@ -577,6 +577,9 @@ void Solver<D>::applyVelocityConditions(bool integrate) {
       // remapped one re-mixes momenta that FLIP left off the contact constraint, and a strain increment taken
       // from it gained energy (two elastic spheres rebounded with 10 % more than they had).
       if (integrate || keepCorrected || !(contact && (corrected_[i] & kByContact))) velocity_[i] = v[b];
+      // The strain increment takes these velocities; where the corrections changed them from the plain remap, the
+      // stress power they add (or take) is work of the contact, not of the internal forces (see EnergyBalance).
+      // Per-particle contact strain tallies it on the particles instead (updateStress).
       if (!integrate && contact && !keepCorrected) {
         Vec<D> plain = remappedMomentum_[i] / m[b];
         if (anyBoundary) applyFaceConditions<D>(plain, spec_.boundary, index, nodes_, 0.0, 0.0);
