@@ -579,8 +579,9 @@ void Solver<D>::applyVelocityConditions(bool integrate) {
       if (integrate || keepCorrected || !(contact && (corrected_[i] & kByContact))) velocity_[i] = v[b];
       // The strain increment takes these velocities; where the corrections changed them from the plain remap, the
       // stress power they add (or take) is work of the contact, not of the internal forces (see EnergyBalance).
-      // Per-particle contact strain tallies it on the particles instead (updateStress).
-      if (!integrate && contact && !keepCorrected) {
+      // Per-particle contact strain tallies it on the particles instead (updateStress). A node of one body was
+      // not corrected: its velocity is the plain one.
+      if (!integrate && contact && !keepCorrected && count > 1) {
         Vec<D> plain = remappedMomentum_[i] / m[b];
         if (anyBoundary) applyFaceConditions<D>(plain, spec_.boundary, index, nodes_, 0.0, 0.0);
         strainWork -= dt * scatter_[i].force.dot(velocity_[i] - plain);

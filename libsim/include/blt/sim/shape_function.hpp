@@ -66,8 +66,8 @@ inline double positivePart(double x) {
 // where the particle's domain [xi - lp, xi + lp] lies within them (stencilBase's base). The same function as
 // uGimpNode, in a form without branches: disturbed material puts each node in a different piece of uGimpNode at
 // random, and the mispredicted branches cost more than the arithmetic (the 3D benchmark with points moved by a
-// quarter cell spent 1.05 s in this stage with uGimpNode and 0.63 s with this form, 2 threads). For an outer node at distance d >= lp,
-// w = (r^2 - e^2) / (4 h lp) with r = max(h + lp - d, 0) and e = max(h - lp - d, 0): the hat function's integral
+// quarter cell spent 1.05 s in this stage with uGimpNode and 0.63 s with this form, 2 threads). For an outer node
+// at distance d >= lp, w = (r^2 - e^2) / (4 h lp) with r = max(h + lp - d, 0) and e = max(h - lp - d, 0): the hat function's integral
 // over the domain, which is uGimpNode's third piece where e = 0 and its linear piece where e > 0; the middle node
 // takes what the outer two leave (partition of unity). An outer node is exactly zero exactly where uGimpNode's is
 // (d >= h + lp, compared alike), so the stencil's 2-node compaction is unchanged; other values agree with
