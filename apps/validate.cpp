@@ -535,20 +535,54 @@ void Report::seed003() {
   sections_["seed003"] = {{"comparisons", toJson(rows)}, {"same_order", same}};
 }
 
-// seed 002: Weldox 460E 10 mm, blunt projectile at 277.5 m/s, measured residual 197.9 m/s.
+// seed 002: Weldox 460E 10 mm, blunt projectile at 277.5 m/s, measured residual 197.9 m/s. The plug is sheared
+// off in a band a few cells wide, so the residual velocity depends on the resolution: the scenario's and half its
+// spacing are both run (in --quick twice the scenario's and the scenario's), and the target is judged on the finer,
+// as seed 002 judged its own mesh study (ch. 5, Table 1) by its finest mesh.
 void Report::weldox() {
   const std::string scenario = "scenarios/weldox_10mm_blunt.toml";
-  const json s = log_.run(scenario, coarse(scenario), "Weldox 460E 10 mm at 277.5 m/s");
-  md_ << "\n## Seed 002: Weldox 460E 10 mm, blunt projectile at 277.5 m/s (target: residual velocity within 10 %)\n";
+  const ImpactScenario sc = loadScenario(dataFile(scenario));
+  // seed 002 Table 1: AUTODYN's residual velocity by element size (m -> m/s), the mesh study of this very shot.
+  const std::map<double, double> seedByElement{{0.1e-3, 201.6}, {0.2e-3, 202.2}, {0.25e-3, 206.7},
+                                               {0.5e-3, 211.8}, {1.2e-3, 252.6}};
+  auto seedAt = [&](double cell) {
+    for (const auto& [element, vr] : seedByElement)
+      if (std::abs(element - cell) < 1e-9) return vr;
+    return double(NAN);
+  };
+  md_ << "\n## Seed 002: Weldox 460E 10 mm, blunt projectile at 277.5 m/s (target: residual velocity within 10 %)\n\n"
+      << "At two resolutions; the seed's model is its AUTODYN run with elements of our cell size "
+         "(seed 002 Table 1).\n\n"
+      << "| particle spacing (mm) | cell (mm) | perforated | v_r (m/s) | of | seed's model (m/s) | wall time (s) |\n"
+      << "|---|---|---|---|---|---|---|\n";
+  json runs = json::array();
   Comparison k{"weldox", "10 mm, 277.5 m/s", "v_r", "m/s"};
-  k.measured = 197.9;                  // seed 002 ch. 5, Table 1 (Borvik's experiment)
-  k.seedModel = 197.9 * 1.07;          // seed 002 Table 1, mesh M4: 7 % above the measurement
-  k.ours = s["perforated"].get<bool>() ? s["residual_velocity_m_s"].get<double>() : 0.0;
+  for (double scale : {o_.quick ? 2.0 : 1.0, o_.quick ? 1.0 : 0.5}) {
+    const double spacing = scale * sc.resolution.particleSpacing, cell = scale * sc.cellSize();
+    std::vector<std::string> settings;
+    if (scale != 1.0)
+      settings = {"resolution.particle_spacing=" + inUnit(spacing, "mm") + "mm",
+                  "resolution.cell_size=" + inUnit(cell, "mm") + "mm"};
+    const json s = log_.run(scenario, settings, "Weldox 460E 10 mm at 277.5 m/s, " + inUnit(spacing, "mm") + " mm");
+    const bool perforated = s["perforated"].get<bool>();
+    const double vr = perforated ? s["residual_velocity_m_s"].get<double>() : 0.0;
+    const std::string of = s["residual_velocity_of"].get<std::string>();
+    md_ << "| " << inUnit(spacing, "mm") << " | " << inUnit(cell, "mm") << " | " << (perforated ? "yes" : "no") << " | "
+        << fmt(vr, "%.1f") << " | " << of << " | " << fmt(seedAt(cell), "%.1f") << " | "
+        << fmt(s["wall_time_s"].get<double>(), "%.0f") << " |\n";
+    runs.push_back({{"particle_spacing_mm", units::toUnit(spacing, "mm")}, {"cell_size_mm", units::toUnit(cell, "mm")},
+                    {"perforated", perforated}, {"residual_velocity_m_s", vr}, {"residual_velocity_of", of},
+                    {"seed_model_m_s", std::isfinite(seedAt(cell)) ? json(seedAt(cell)) : json(nullptr)}});
+    // The finer run (the loop's last) is the one judged.
+    k.measured = 197.9;  // seed 002 ch. 5, Table 1 (Borvik's experiment)
+    k.seedModel = seedAt(cell);
+    k.ours = vr;
+    k.note = of + ", " + inUnit(spacing, "mm") + " mm particles, " + inUnit(cell, "mm") + " mm cells";
+  }
   k.target = "within 10 %";
   k.tolerance = 0.10;
-  k.note = s["residual_velocity_of"].get<std::string>() + (o_.quick ? ", twice the spacing" : "");
   comparisonTable({k}, true);
-  sections_["weldox"] = {{"comparisons", json::array({k.toJson()})}};
+  sections_["weldox"] = {{"comparisons", json::array({k.toJson()})}, {"runs", runs}};
 }
 
 // seed 001 Table 3: punch-hole diameters of the first bumper.

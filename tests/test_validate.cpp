@@ -136,3 +136,43 @@ TEST_CASE("validate: Table 1 at several grid alignments counts the right outcome
   CHECK(text.find("Right outcomes at each alignment: 13, 10 of 13 (10 to 13)") != std::string::npos);
   CHECK(text.find("holds at 1 of 2 alignments") != std::string::npos);
 }
+
+TEST_CASE("validate: Weldox is run at two resolutions and judged on the finer, against seed 002's experiment") {
+  const auto dir = std::filesystem::temp_directory_path() / "blt_validate_weldox";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  const std::string scenario = "scenarios/weldox_10mm_blunt.toml";
+  auto weldoxRun = [](double residual) {
+    return nlohmann::json{{"perforated", true},
+                          {"residual_velocity_m_s", residual},
+                          {"residual_velocity_of", "projectile"},
+                          {"wall_time_s", 1.0}};
+  };
+  {
+    std::ofstream log(dir / "runs.jsonl");
+    // The scenario's resolution (0.25 mm particles, 0.5 mm cells) and half its spacing.
+    log << nlohmann::json{{"key", runKey(scenario, {})}, {"summary", weldoxRun(170.0)}}.dump() << "\n";
+    log << nlohmann::json{{"key", runKey(scenario, {"resolution.particle_spacing=0.125mm",
+                                                    "resolution.cell_size=0.25mm"})},
+                          {"summary", weldoxRun(190.0)}}
+               .dump()
+        << "\n";
+  }
+  const BltRun r = runBlt("validate --only weldox --out '" + dir.string() + "'");
+  REQUIRE_MESSAGE(r.status == 0, r.output);
+  CHECK(r.output.find("0 runs made, 2 reused") != std::string::npos);
+  std::ifstream in(dir / "validation.json");
+  const auto doc = nlohmann::json::parse(in);
+  const auto& k = doc["sections"]["weldox"]["comparisons"][0];
+  CHECK(k["measured"].get<double>() == doctest::Approx(197.9));  // seed 002 ch. 5, Table 1
+  CHECK(k["ours"].get<double>() == doctest::Approx(190.0));      // the finer run
+  CHECK(k["seed_model"].get<double>() == doctest::Approx(206.7));  // seed 002 Table 1, 0.25 mm elements
+  CHECK(k["error"].get<double>() == doctest::Approx(190.0 / 197.9 - 1));
+  CHECK(k["met"] == true);
+  const auto& runs = doc["sections"]["weldox"]["runs"];
+  REQUIRE(runs.size() == 2);
+  CHECK(runs[0]["particle_spacing_mm"].get<double>() == doctest::Approx(0.25));
+  CHECK(runs[0]["residual_velocity_m_s"].get<double>() == doctest::Approx(170.0));
+  CHECK(runs[0]["seed_model_m_s"].get<double>() == doctest::Approx(211.8));  // seed 002 Table 1, 0.5 mm elements
+  CHECK(runs[1]["cell_size_mm"].get<double>() == doctest::Approx(0.25));
+}
