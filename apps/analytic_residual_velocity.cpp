@@ -17,13 +17,6 @@ namespace {
 
 namespace rv = blt::analytic;
 
-std::string number(double value, int digits = 5) {
-  std::ostringstream out;
-  out.precision(digits);
-  out << value;
-  return out.str();
-}
-
 nlohmann::json optionalJson(const std::optional<double>& value) {
   return value ? nlohmann::json(*value) : nlohmann::json(nullptr);
 }
@@ -61,9 +54,9 @@ struct AOptions {
     if (!haveProjectile) return std::nullopt;
     if (!(projectileMass > 0.0))
       throw InputError(InputLocation::flag("--projectile-mass"),
-                       "projectile mass " + number(projectileMass) + " kg is not positive", "a mass above 0 kg");
+                       "projectile mass " + number(projectileMass, 5) + " kg is not positive", "a mass above 0 kg");
     if (!(plugMass >= 0.0))
-      throw InputError(InputLocation::flag("--plug-mass"), "plug mass " + number(plugMass) + " kg is negative",
+      throw InputError(InputLocation::flag("--plug-mass"), "plug mass " + number(plugMass, 5) + " kg is negative",
                        "a mass of 0 kg or more");
     return rv::rechtIpsonA(projectileMass, plugMass);
   }
@@ -195,7 +188,7 @@ void registerEval(CLI::App& parent) {
     const double p = units::parse(s->pText, units::dimensionless, InputLocation::flag("--p"));
     if (!(p > 0.0)) throw InputError(InputLocation::flag("--p"), "p = " + s->pText + " is not positive", "p > 0");
     if (!(s->ballisticLimit >= 0.0))
-      throw InputError(InputLocation::flag("--v-bl"), "v_bl = " + number(s->ballisticLimit) + " m/s is negative",
+      throw InputError(InputLocation::flag("--v-bl"), "v_bl = " + number(s->ballisticLimit, 5) + " m/s is negative",
                        "v_bl >= 0 m/s");
     const rv::ResidualVelocityParameters parameters{*a, p, s->ballisticLimit};
     std::vector<double> impact, residual;

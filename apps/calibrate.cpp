@@ -30,15 +30,8 @@ namespace {
 
 namespace cal = blt::calibrate;
 
-std::string number(double v, int digits = 4) {
-  std::ostringstream out;
-  out.precision(digits);
-  out << v;
-  return out.str();
-}
-
 std::string withUnit(double si, const std::string& unit) {
-  return unit.empty() ? number(si) : number(units::toUnit(si, unit)) + " " + unit;
+  return unit.empty() ? number(si, 4) : number(units::toUnit(si, unit), 4) + " " + unit;
 }
 
 double positiveNumber(const std::string& text, const std::string& flag, bool allowZero) {
@@ -246,17 +239,17 @@ void registerCalibrateCommand(CLI::App& app) {
     for (std::size_t i : result.alsoAccepted) {
       const cal::EffectFit& f = result.ranking[i];
       const bool rival = std::find(rivals.begin(), rivals.end(), i) != rivals.end();
-      std::cout << "  also accepted: " << f.effect.name << " (t " << number(f.tAgainstWinner) << " against "
+      std::cout << "  also accepted: " << f.effect.name << " (t " << number(f.tAgainstWinner, 4) << " against "
                 << w->effect.name << ": "
                 << (rival ? "the data do not tell the two apart" : "significantly worse") << ")\n";
     }
-    std::cout << "  error before " << number(result.before.combined) << ", after "
-              << number(w ? w->fitted.combined : result.before.combined) << "; held out before "
-              << number(result.before.combined) << ", after " << number(w ? w->heldoutError : result.before.combined)
+    std::cout << "  error before " << number(result.before.combined, 4) << ", after "
+              << number(w ? w->fitted.combined : result.before.combined, 4) << "; held out before "
+              << number(result.before.combined, 4) << ", after " << number(w ? w->heldoutError : result.before.combined, 4)
               << "\n  ranking (held-out error):\n";
     for (const auto& f : result.ranking)
       std::cout << "    " << f.effect.name << ": " << f.effect.parameter.name << " = "
-                << withUnit(f.parameter, f.effect.parameter.unit) << ", held out " << number(f.heldoutError) << "; "
+                << withUnit(f.parameter, f.effect.parameter.unit) << ", held out " << number(f.heldoutError, 4) << "; "
                 << f.verdict << "\n";
     std::cout << "  report: " << s->report << "/report.md\n";
   });

@@ -5,11 +5,20 @@
 #include <CLI/CLI.hpp>
 #include <iostream>
 #include <nlohmann/json.hpp>
+#include <sstream>
 #include <string>
 
 #include "blt/core/units.hpp"
 
 namespace blt::cli {
+
+// A value for a message or a table, to `digits` significant digits (shortest form, as an ostream prints it).
+inline std::string number(double value, int digits) {
+  std::ostringstream out;
+  out.precision(digits);
+  out << value;
+  return out.str();
+}
 
 // An option whose value carries a unit ("6.5 km/s"). The SI value is stored in `target`; a missing unit or
 // a wrong dimension is an InputError naming the flag. The help text shows an example of the expected unit.
