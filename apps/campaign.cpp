@@ -34,15 +34,6 @@ namespace {
 
 using namespace blt::campaign;
 
-std::string clock(double seconds) {
-  if (!std::isfinite(seconds)) return "?";
-  const long s = std::lround(seconds);
-  char buf[32];
-  if (s >= 3600) std::snprintf(buf, sizeof buf, "%ld:%02ld:%02ld", s / 3600, s / 60 % 60, s % 60);
-  else std::snprintf(buf, sizeof buf, "%ld:%02ld", s / 60, s % 60);
-  return buf;
-}
-
 bool isDiameter(const std::string& variable) { return variable == "diameter"; }
 const char* unitOf(const std::string& variable) { return isDiameter(variable) ? "mm" : "m/s"; }
 std::string keySuffix(const std::string& variable) { return isDiameter(variable) ? "_mm" : "_m_s"; }
@@ -132,12 +123,12 @@ void runCommand(const RunCommandOptions& o) {
       char line[256];
       std::snprintf(line, sizeof line, "points %d/%d, runs %d (%d simulated, %d replayed, %d failed), %s elapsed, ETA %s",
                     p.pointsDone, p.pointsTotal, p.simulated + p.replayed, p.simulated, p.replayed, p.failed,
-                    clock(p.elapsedSeconds).c_str(), clock(p.etaSeconds).c_str());
+                    wallClock(p.elapsedSeconds).c_str(), wallClock(p.etaSeconds).c_str());
       if (tty && !json) {
         // The event above the live line, the live line redrawn under it.
         std::fprintf(stderr, "\r\033[K  %s\n%s", p.event.c_str(), line);
       } else {
-        std::fprintf(stderr, "[%s] %s | %s\n", clock(p.elapsedSeconds).c_str(), p.event.c_str(), line);
+        std::fprintf(stderr, "[%s] %s | %s\n", wallClock(p.elapsedSeconds).c_str(), p.event.c_str(), line);
       }
       std::fflush(stderr);
     };
@@ -190,8 +181,8 @@ void runCommand(const RunCommandOptions& o) {
   printPoints(r.points, variable);
   std::printf("%d of %zu points resolved; %d runs simulated (%d failed), %d replayed from the database; %.3g runs per "
               "point; wall time %s (simulations %s)\n",
-              resolved, r.points.size(), r.simulated, r.failed, r.replayed, perPoint, clock(r.wallSeconds).c_str(),
-              clock(r.simulatedSeconds).c_str());
+              resolved, r.points.size(), r.simulated, r.failed, r.replayed, perPoint, wallClock(r.wallSeconds).c_str(),
+              wallClock(r.simulatedSeconds).c_str());
   if (r.replayedFromOtherBuild > 0)
     std::printf("note: %d of the replayed runs were recorded by another build of blt (its tool_version, with the model "
                 "fingerprint, differs from this one's, %s), so this build might judge them otherwise; a new "
@@ -259,7 +250,7 @@ void statusCommand(const StatusOptions& o) {
     std::printf("campaign %s: %s bisection, %zu of %zu points in this file (task %d/%d), %zu runs (%d failed), "
                 "simulation time %s\n",
                 c.name.c_str(), c.variable.c_str(), points.size(), defined, c.taskIndex, c.taskCount, runs.size(),
-                failed, clock(wall).c_str());
+                failed, wallClock(wall).c_str());
     std::string summary;
     for (const auto& [state, n] : states) summary += (summary.empty() ? "" : ", ") + std::to_string(n) + " " + state;
     std::printf("  points: %s\n", summary.c_str());
@@ -458,9 +449,9 @@ void benchCampaign(const BenchCampaignOptions& o) {
   const auto progressFor = [&o](const std::string& name) -> std::function<void(const CampaignProgress&)> {
     if (o.quiet) return {};
     return [name](const CampaignProgress& p) {
-      std::fprintf(stderr, "[%s] %s: %s | points %d/%d, runs %d, ETA %s\n", clock(p.elapsedSeconds).c_str(),
+      std::fprintf(stderr, "[%s] %s: %s | points %d/%d, runs %d, ETA %s\n", wallClock(p.elapsedSeconds).c_str(),
                    name.c_str(), p.event.c_str(), p.pointsDone, p.pointsTotal, p.simulated + p.replayed,
-                   clock(p.etaSeconds).c_str());
+                   wallClock(p.etaSeconds).c_str());
       std::fflush(stderr);
     };
   };

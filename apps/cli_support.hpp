@@ -3,14 +3,37 @@
 // the --json switch, and printing of JSON documents.
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
 #include <iostream>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
 
 #include "blt/core/units.hpp"
+#include "blt/sim/run.hpp"
 
 namespace blt::cli {
+
+// A wall time as m:ss, or h:mm:ss from an hour on; "?" when not finite (an estimate not yet possible).
+inline std::string wallClock(double seconds) {
+  if (!std::isfinite(seconds)) return "?";
+  const long s = std::lround(seconds);
+  char buf[32];
+  if (s >= 3600) std::snprintf(buf, sizeof buf, "%ld:%02ld:%02ld", s / 3600, s / 60 % 60, s % 60);
+  else std::snprintf(buf, sizeof buf, "%ld:%02ld", s / 60, s % 60);
+  return buf;
+}
+
+// Wall seconds left to the end time at the pace so far (simulated time per wall second, over the whole run, a
+// resumed run's earlier part included); infinite before any time has passed. A run that stops once its verdict
+// settles may end sooner, and one whose time step shrinks later (crushed material), later. Here, not in the
+// solver library, so that the model fingerprint (and every cached run) stays as it is.
+inline double remainingWallSeconds(const sim::RunProgress& progress) {
+  if (!(progress.time > 0) || !(progress.wallSeconds >= 0)) return INFINITY;
+  return progress.wallSeconds * std::max(progress.endTime - progress.time, 0.0) / progress.time;
+}
 
 // A value for a message or a table, to `digits` significant digits (shortest form, as an ostream prints it).
 inline std::string number(double value, int digits) {

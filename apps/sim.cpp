@@ -56,9 +56,10 @@ RunHooks<D> progressHooks(bool quiet) {
   RunHooks<D> hooks;
   if (quiet) return hooks;
   hooks.progress = [](const RunProgress& p) {
-    std::fprintf(stderr, "  step %ld  t = %.2f / %.2f us  dt = %.3g ns  kinetic %.4g J  %zu particles  wall %.1f s\n",
+    std::fprintf(stderr,
+                 "  step %ld  t = %.2f / %.2f us  dt = %.3g ns  kinetic %.4g J  %zu particles  wall %.1f s  ETA %s\n",
                  p.step, p.time * 1e6, p.endTime * 1e6, p.timeStep * 1e9, p.energy.kinetic, p.activeParticles,
-                 p.wallSeconds);
+                 p.wallSeconds, wallClock(remainingWallSeconds(p)).c_str());
   };
   return hooks;
 }

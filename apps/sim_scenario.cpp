@@ -60,8 +60,9 @@ ImpactRunOptions runOptions(const ScenarioOptions& o) {
   ro.frames = !o.noFrames;
   if (!o.quiet)
     ro.progress = [](const RunProgress& p) {
-      std::fprintf(stderr, "  step %ld  t = %.2f / %.2f us  dt = %.3g ns  %zu particles  wall %.1f s\n", p.step,
-                   p.time * 1e6, p.endTime * 1e6, p.timeStep * 1e9, p.activeParticles, p.wallSeconds);
+      std::fprintf(stderr, "  step %ld  t = %.2f / %.2f us  dt = %.3g ns  %zu particles  wall %.1f s  ETA %s\n",
+                   p.step, p.time * 1e6, p.endTime * 1e6, p.timeStep * 1e9, p.activeParticles, p.wallSeconds,
+                   wallClock(remainingWallSeconds(p)).c_str());
     };
   return ro;
 }
