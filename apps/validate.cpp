@@ -565,7 +565,8 @@ void Report::weldox() {
   k.measured = 197.9;  // seed 002 ch. 5, Table 1 (Borvik's experiment)
   for (double scale : {o_.quick ? 2.0 : 1.0, o_.quick ? 1.0 : 0.5}) {
     const double spacing = scale * sc.resolution.particleSpacing, cell = scale * sc.cellSize();
-    const json s = log_.run(scenario, scaledResolution(scenario, scale), "Weldox 460E 10 mm at 277.5 m/s, " + inUnit(spacing, "mm") + " mm");
+    const json s = log_.run(scenario, scaledResolution(scenario, scale),
+                            "Weldox 460E 10 mm at 277.5 m/s, " + inUnit(spacing, "mm") + " mm");
     const bool perforated = s["perforated"].get<bool>();
     const double vr = perforated ? s["residual_velocity_m_s"].get<double>() : 0.0;
     const std::string of = s["residual_velocity_of"].get<std::string>();
@@ -633,7 +634,7 @@ void Report::convergence() {
         const std::string scenario = std::string("scenarios/fabric_al_") + model + ".toml";
         const double h = units::toUnit(scale * loadScenario(dataFile(scenario)).resolution.particleSpacing, "mm");
         std::vector<std::string> s = shot(dv.first, dv.second);
-        for (const std::string& r : scaledResolution(scenario, scale)) s.push_back(r);
+        for (const std::string& setting : scaledResolution(scenario, scale)) s.push_back(setting);
         const json r = log_.run(scenario, s,
                                 "convergence case " + id + " " + model + " at " + fmt(h) + " mm");
         md_ << "| " << id << " | " << model << " | " << fmt(h) << " | " << (r["perforated"].get<bool>() ? "yes" : "no")
