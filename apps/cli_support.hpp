@@ -35,6 +35,18 @@ inline double remainingWallSeconds(const sim::RunProgress& progress) {
   return progress.wallSeconds * std::max(progress.endTime - progress.time, 0.0) / progress.time;
 }
 
+// One progress line of a run, for stderr. The kinetic energy is shown only where it is a whole-body figure
+// (a 3D example); an axisymmetric scenario's energies are per radian and would mislead without their unit.
+inline std::string progressLine(const sim::RunProgress& p, bool withKinetic) {
+  char kinetic[48] = "";
+  if (withKinetic) std::snprintf(kinetic, sizeof kinetic, "  kinetic %.4g J", p.energy.kinetic);
+  char buf[256];
+  std::snprintf(buf, sizeof buf, "  step %ld  t = %.2f / %.2f us  dt = %.3g ns%s  %zu particles  wall %.1f s  ETA %s\n",
+                p.step, p.time * 1e6, p.endTime * 1e6, p.timeStep * 1e9, kinetic, p.activeParticles, p.wallSeconds,
+                wallClock(remainingWallSeconds(p)).c_str());
+  return buf;
+}
+
 // A value for a message or a table, to `digits` significant digits (shortest form, as an ostream prints it).
 inline std::string number(double value, int digits) {
   std::ostringstream out;

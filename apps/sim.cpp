@@ -55,12 +55,7 @@ template <int D>
 RunHooks<D> progressHooks(bool quiet) {
   RunHooks<D> hooks;
   if (quiet) return hooks;
-  hooks.progress = [](const RunProgress& p) {
-    std::fprintf(stderr,
-                 "  step %ld  t = %.2f / %.2f us  dt = %.3g ns  kinetic %.4g J  %zu particles  wall %.1f s  ETA %s\n",
-                 p.step, p.time * 1e6, p.endTime * 1e6, p.timeStep * 1e9, p.energy.kinetic, p.activeParticles,
-                 p.wallSeconds, wallClock(remainingWallSeconds(p)).c_str());
-  };
+  hooks.progress = [](const RunProgress& p) { std::fputs(progressLine(p, true).c_str(), stderr); };
   return hooks;
 }
 

@@ -59,11 +59,7 @@ ImpactRunOptions runOptions(const ScenarioOptions& o) {
   ro.resume = o.resume;
   ro.frames = !o.noFrames;
   if (!o.quiet)
-    ro.progress = [](const RunProgress& p) {
-      std::fprintf(stderr, "  step %ld  t = %.2f / %.2f us  dt = %.3g ns  %zu particles  wall %.1f s  ETA %s\n",
-                   p.step, p.time * 1e6, p.endTime * 1e6, p.timeStep * 1e9, p.activeParticles, p.wallSeconds,
-                   wallClock(remainingWallSeconds(p)).c_str());
-    };
+    ro.progress = [](const RunProgress& p) { std::fputs(progressLine(p, false).c_str(), stderr); };
   return ro;
 }
 

@@ -35,3 +35,18 @@ TEST_CASE("cli: number() gives the significant digits asked for") {
   CHECK(cli::number(0.000123456, 3) == "0.000123");
   CHECK(cli::number(1234567.0, 3) == "1.23e+06");
 }
+
+TEST_CASE("cli: a progress line gives step, times in us and ns, particles, wall time and ETA; kinetic energy on request") {
+  sim::RunProgress p;
+  p.step = 726;
+  p.time = 15e-6;
+  p.endTime = 30e-6;
+  p.timeStep = 23.2e-9;
+  p.activeParticles = 6590;
+  p.wallSeconds = 2.0;
+  p.energy.kinetic = 1234.4;
+  CHECK(cli::progressLine(p, false) ==
+        "  step 726  t = 15.00 / 30.00 us  dt = 23.2 ns  6590 particles  wall 2.0 s  ETA 0:02\n");
+  CHECK(cli::progressLine(p, true) ==
+        "  step 726  t = 15.00 / 30.00 us  dt = 23.2 ns  kinetic 1234 J  6590 particles  wall 2.0 s  ETA 0:02\n");
+}
