@@ -111,6 +111,8 @@ void Solver<D>::initialise() {
     corrected_.assign(fields, 0);
   else
     corrected_.clear();
+  stencilBox_.assign(static_cast<std::size_t>(bodies_), NodeBox<D>::none());
+  writtenBox_ = gridBox_ = stencilBox_;
   stencil_.resize(n);
   stencilGradient_.resize(n);
   slabOf_.assign(n, 0);
@@ -201,68 +203,86 @@ void Solver<D>::computeShapeFunctions() {
   const ShapeFunctionKind kind = options_.shapeFunction;
   const int ns = stencilSize(kind);
   const double invH = 1.0 / h;
-#pragma omp parallel for schedule(static) num_threads(threads_) if (parallel_)
-  for (long p = 0; p < static_cast<long>(n); ++p) {
-    if (!particles_.active[p]) {
-      slabOf_[p] = -1;
-      continue;
-    }
-    const Vec<D>& x = particles_.position[p];
-    Stencil<D>& st = stencil_[p];
-    StencilGradient<D>& sg = stencilGradient_[p];
-    long node = 0;
-    bool inside = true;
-    for (int a = 0; a < D; ++a) {
-      const double len = (nodes_[a] - 1) * h;
-      double xi = x[a] - spec_.lower[a];
-      if (!(xi >= -0.5 * h && xi <= len + 0.5 * h)) {  // also catches NaN
-        inside = false;
-        break;
+  const int B = bodies_;
+  threadBox_.assign(static_cast<std::size_t>(std::max(threads_, 1) * B), NodeBox<D>::none());
+#pragma omp parallel num_threads(threads_) if (parallel_)
+  {
+    NodeBox<D>* box = &threadBox_[static_cast<std::size_t>(omp_get_thread_num() * B)];
+#pragma omp for schedule(static)
+    for (long p = 0; p < static_cast<long>(n); ++p) {
+      if (!particles_.active[p]) {
+        slabOf_[p] = -1;
+        continue;
       }
-      // A particle within its half-width of a face is evaluated as touching the face from inside.
-      const double lp = kind == ShapeFunctionKind::linear ? 0.0 : particles_.halfSize[p][a];
-      xi = std::clamp(xi, lp, len - lp - 1e-12 * h);
-      const int base = stencilBase(kind, xi, h, lp, nodes_[a]);
-      const double invHLp = kind == ShapeFunctionKind::linear ? 0.0 : 1.0 / (h * lp);
-      if (kind == ShapeFunctionKind::uGimp) {
-        uGimpStencil(xi, h, lp, base, invHLp, st.w[a], sg.g[a]);
-      } else {
-        for (int k = 0; k < kStencil; ++k) {
-          if (k < ns)
-            stencilNode(kind, xi, h, lp, invH, invHLp, base + k, st.w[a][k], sg.g[a][k]);
-          else
-            st.w[a][k] = sg.g[a][k] = 0.0;
+      const Vec<D>& x = particles_.position[p];
+      Stencil<D>& st = stencil_[p];
+      StencilGradient<D>& sg = stencilGradient_[p];
+      long node = 0;
+      int first[D];  // the stencil's first node on each axis
+      bool inside = true;
+      for (int a = 0; a < D; ++a) {
+        const double len = (nodes_[a] - 1) * h;
+        double xi = x[a] - spec_.lower[a];
+        if (!(xi >= -0.5 * h && xi <= len + 0.5 * h)) {  // also catches NaN
+          inside = false;
+          break;
+        }
+        // A particle within its half-width of a face is evaluated as touching the face from inside.
+        const double lp = kind == ShapeFunctionKind::linear ? 0.0 : particles_.halfSize[p][a];
+        xi = std::clamp(xi, lp, len - lp - 1e-12 * h);
+        const int base = stencilBase(kind, xi, h, lp, nodes_[a]);
+        const double invHLp = kind == ShapeFunctionKind::linear ? 0.0 : 1.0 / (h * lp);
+        if (kind == ShapeFunctionKind::uGimp) {
+          uGimpStencil(xi, h, lp, base, invHLp, st.w[a], sg.g[a]);
+        } else {
+          for (int k = 0; k < kStencil; ++k) {
+            if (k < ns)
+              stencilNode(kind, xi, h, lp, invH, invHLp, base + k, st.w[a][k], sg.g[a][k]);
+            else
+              st.w[a][k] = sg.g[a][k] = 0.0;
+          }
+        }
+        node += base * strides_[a];
+        first[a] = base;
+        if (a == slabAxis_) slabOf_[p] = base / 2;
+      }
+      if (!inside) {
+        particles_.active[p] = 0;
+        slabOf_[p] = -1;
+        continue;
+      }
+      // Two nodes on an axis carry weight where the domain [x - lp, x + lp] lies within one cell along it, and the
+      // stages skip the third (each axis on its own: a point off the fill lattice has 2 on about half its axes). On a
+      // quarter point (where the initial lattice puts a point) the domain's edge lies exactly on a node, and the
+      // rounding of stencilBase decides whether the first node or the third carries nothing; where it is the first,
+      // the stencil starts one node later on that axis. The stencil stays within base..base + 2, so the slab bins hold.
+      for (int a = 0; a < D; ++a) {
+        st.size[a] = static_cast<std::uint8_t>(ns);
+        if (ns != kStencil) continue;
+        if (st.w[a][0] == 0.0 && sg.g[a][0] == 0.0) {
+          for (int k = 0; k + 1 < kStencil; ++k) {
+            st.w[a][k] = st.w[a][k + 1];
+            sg.g[a][k] = sg.g[a][k + 1];
+          }
+          st.w[a][kStencil - 1] = sg.g[a][kStencil - 1] = 0.0;
+          node += strides_[a];
+          ++first[a];
+          st.size[a] = 2;
+        } else if (st.w[a][2] == 0.0 && sg.g[a][2] == 0.0) {
+          st.size[a] = 2;
         }
       }
-      node += base * strides_[a];
-      if (a == slabAxis_) slabOf_[p] = base / 2;
-    }
-    if (!inside) {
-      particles_.active[p] = 0;
-      slabOf_[p] = -1;
-      continue;
-    }
-    // Two nodes on an axis carry weight where the domain [x - lp, x + lp] lies within one cell along it, and the
-    // stages skip the third (each axis on its own: a point off the fill lattice has 2 on about half its axes). On a
-    // quarter point (where the initial lattice puts a point) the domain's edge lies exactly on a node, and the
-    // rounding of stencilBase decides whether the first node or the third carries nothing; where it is the first,
-    // the stencil starts one node later on that axis. The stencil stays within base..base + 2, so the slab bins hold.
-    for (int a = 0; a < D; ++a) {
-      st.size[a] = static_cast<std::uint8_t>(ns);
-      if (ns != kStencil) continue;
-      if (st.w[a][0] == 0.0 && sg.g[a][0] == 0.0) {
-        for (int k = 0; k + 1 < kStencil; ++k) {
-          st.w[a][k] = st.w[a][k + 1];
-          sg.g[a][k] = sg.g[a][k + 1];
-        }
-        st.w[a][kStencil - 1] = sg.g[a][kStencil - 1] = 0.0;
-        node += strides_[a];
-        st.size[a] = 2;
-      } else if (st.w[a][2] == 0.0 && sg.g[a][2] == 0.0) {
-        st.size[a] = 2;
+      st.node = static_cast<int>(node);
+      NodeBox<D>& b = box[B > 1 ? particles_.body[p] : 0];
+      for (int a = 0; a < D; ++a) {
+        b.lo[a] = std::min(b.lo[a], first[a]);
+        b.hi[a] = std::max(b.hi[a], first[a] + st.size[a] - 1);
       }
     }
-    st.node = static_cast<int>(node);
+  }
+  for (int b = 0; b < B; ++b) {
+    stencilBox_[b] = NodeBox<D>::none();
+    for (std::size_t t = 0; t < threadBox_.size() / B; ++t) stencilBox_[b].include(threadBox_[t * B + b]);
   }
   // Counting sort of the active particles by slab.
   std::fill(slabStart_.begin(), slabStart_.end(), 0);
@@ -353,16 +373,37 @@ void Solver<D>::scatterByColour(F&& body) {
   }
 }
 
+// Sets each body's entries of `field` within its grid box to `zero`, a row of the box at a time.
+template <int D>
+template <class T>
+void Solver<D>::clearInBoxes(std::vector<T>& field, const T& zero) {
+  const long N = static_cast<long>(nodeCount_);
+  for (int b = 0; b < bodies_; ++b) {
+    const NodeBox<D>& box = gridBox_[b];
+    const long rows = box.rows(), length = box.hi[0] - box.lo[0] + 1;
+#pragma omp parallel for schedule(static) num_threads(threads_) if (parallel_)
+    for (long k = 0; k < rows; ++k) {
+      int index[D];
+      index[0] = box.lo[0];
+      box.rowIndex(k, index);
+      long start = b * N;
+      for (int a = 0; a < D; ++a) start += index[a] * strides_[a];
+      std::fill_n(field.begin() + start, length, zero);
+    }
+  }
+}
+
 // ---------------------------------------------------------------------------------------------------------
 // Stage 2: particles to grid.
 template <int D>
 void Solver<D>::particlesToGrid() {
   const StageClock clock(stageTimes_.particlesToGrid);
-  const std::size_t fields = scatter_.size();
-#pragma omp parallel for schedule(static) num_threads(threads_) if (parallel_)
-  for (long i = 0; i < static_cast<long>(fields); ++i) {
-    scatter_[i] = ScatterNode<D>{};
+  for (int b = 0; b < bodies_; ++b) {
+    gridBox_[b] = writtenBox_[b];
+    gridBox_[b].include(stencilBox_[b]);
+    writtenBox_[b] = stencilBox_[b];
   }
+  clearInBoxes(scatter_, ScatterNode<D>{});
   const bool hoop = D == 2 && options_.axisymmetric;
   const bool gradients = bodies_ > 1;
   scatterByColour([&](int p) {
@@ -449,142 +490,158 @@ void Solver<D>::applyVelocityConditions(bool integrate) {
   // USL takes the strain increment from these velocities, MUSL from those of the remap (this function again).
   const bool strainFromIntegration = options_.scheme == UpdateSchemeKind::usl;
   double strainWork = 0;
+  constexpr int kMaxBodies = 16;
+  NodeBox<D> all = NodeBox<D>::none();
+  for (int b = 0; b < B; ++b) all.include(gridBox_[b]);
+  const long rows = all.rows();
 #pragma omp parallel for schedule(static) reduction(+ : strainWork) num_threads(threads_) if (parallel_)
-  for (long n = 0; n < N; ++n) {
-    constexpr int kMaxBodies = 16;
-    Vec<D> v[kMaxBodies];
-    Vec<D> normal[kMaxBodies];
-    double m[kMaxBodies];
-    int ids[kMaxBodies];
-    int count = 0;
+  for (long row = 0; row < rows; ++row) {
+    int index[D];
+    index[0] = all.lo[0];
+    all.rowIndex(row, index);
+    long rowStart = 0;
+    for (int a = 1; a < D; ++a) rowStart += index[a] * strides_[a];
+    // Each body's columns on this row; outside them its entries have no mass and hold zeros (gridBox_).
+    int firstColumn[kMaxBodies], lastColumn[kMaxBodies];
     for (int b = 0; b < B; ++b) {
-      const long i = b * N + n;
-      m[b] = scatter_[i].mass;
-      if (integrate && !corrected_.empty()) corrected_[i] = 0;
-      if (m[b] <= massEpsilon_) {
-        velocity_[i].setZero();
-        velocityChange_[i].setZero();
-        continue;
-      }
-      if (integrate) {
-        const Vec<D> vOld = scatter_[i].momentum / m[b];
-        v[b] = (scatter_[i].momentum + dt * scatter_[i].force) / m[b];
-        velocityChange_[i] = vOld;  // holds the old velocity until the end of this node's update
-      } else {
-        v[b] = remappedMomentum_[i] / m[b];
-      }
-      if (count < kMaxBodies) ids[count++] = b;
+      const bool onRow = gridBox_[b].containsRow(index);
+      firstColumn[b] = onRow ? gridBox_[b].lo[0] : 1;
+      lastColumn[b] = onRow ? gridBox_[b].hi[0] : 0;
     }
-    if (count == 0) continue;
-    int index[D] = {};
-    if (anyBoundary) {
-      long rest = n;
-      for (int a = 0; a < D; ++a) {
-        index[a] = static_cast<int>(rest % nodes_[a]);
-        rest /= nodes_[a];
+    for (int column = all.lo[0]; column <= all.hi[0]; ++column) {
+      index[0] = column;
+      const long n = rowStart + column;
+      Vec<D> v[kMaxBodies];
+      Vec<D> normal[kMaxBodies];
+      double m[kMaxBodies];
+      int ids[kMaxBodies];
+      int count = 0;
+      for (int b = 0; b < B; ++b) {
+        if (column < firstColumn[b] || column > lastColumn[b]) {
+          m[b] = 0.0;
+          continue;
+        }
+        const long i = b * N + n;
+        m[b] = scatter_[i].mass;
+        if (integrate && !corrected_.empty()) corrected_[i] = 0;
+        if (m[b] <= massEpsilon_) {
+          velocity_[i].setZero();
+          velocityChange_[i].setZero();
+          continue;
+        }
+        if (integrate) {
+          const Vec<D> vOld = scatter_[i].momentum / m[b];
+          v[b] = (scatter_[i].momentum + dt * scatter_[i].force) / m[b];
+          velocityChange_[i] = vOld;  // holds the old velocity until the end of this node's update
+        } else {
+          v[b] = remappedMomentum_[i] / m[b];
+        }
+        if (count < kMaxBodies) ids[count++] = b;
       }
-    }
-    // Contact among the bodies that carry a real share of the node's volume: a body touching a node with a sliver
-    // of weight has an ill-defined nodal velocity there (its force over its tiny mass) and would upset the
-    // exchange. Without this filter the 3D quarter model and the axisymmetric run of the verification impact
-    // differ by 5.8 %, with it by 3.7 %. Slivers are still kept from passing into the others (correctSlivers):
-    // without that, failed fabric spray of one twentieth of a node's volume went through a 1.4 mm aluminium plate.
-    // Volume, not mass: a light body (fabric on aluminium) is no sliver for being light.
-    int touching[kMaxBodies], slivers[kMaxBodies];
-    int contactCount = 0, sliverCount = 0;
-    if (contact && count > 1) {
-      double vt = 0;
-      for (int k = 0; k < count; ++k) vt += m[ids[k]] / bodyDensity_[ids[k]];
-      for (int k = 0; k < count; ++k)
-        if (m[ids[k]] / bodyDensity_[ids[k]] >= kContactVolumeFraction * vt)
-          touching[contactCount++] = ids[k];
-        else
-          slivers[sliverCount++] = ids[k];
-    }
-    if ((integrate || !keepCorrected) && (contactCount > 1 || (contactCount == 1 && sliverCount > 0))) {
-      Vec<D> total = Vec<D>::Zero();
-      for (int k = 0; k < contactCount; ++k) total += scatter_[touching[k] * N + n].gradient;
-      // sum_p m_p grad N_I(x_p) points from a body towards the node, i.e. along the body's outward normal at its
-      // surface. Body b's normal uses its own gradient minus the others', so two bodies get opposite normals.
-      for (int k = 0; k < contactCount; ++k) {
-        const int b = touching[k];
-        Vec<D> g = 2.0 * scatter_[b * N + n].gradient - total;
-        // On a symmetry plane the mirrored half is missing from the sum; by symmetry the true normal lies in the
-        // plane, so the component across it is dropped.
-        if (anyBoundary)
-          for (int a = 0; a < D; ++a)
-            if ((index[a] == 0 && spec_.boundary[2 * a] == BoundaryKind::symmetry) ||
-                (index[a] == nodes_[a] - 1 && spec_.boundary[2 * a + 1] == BoundaryKind::symmetry))
-              g[a] = 0.0;
-        const double len = g.norm();
-        normal[b] = len > 0 ? Vec<D>(g / len) : Vec<D>::Zero();
+      if (count == 0) continue;
+      // Contact among the bodies that carry a real share of the node's volume: a body touching a node with a sliver
+      // of weight has an ill-defined nodal velocity there (its force over its tiny mass) and would upset the
+      // exchange. Without this filter the 3D quarter model and the axisymmetric run of the verification impact
+      // differ by 5.8 %, with it by 3.7 %. Slivers are still kept from passing into the others (correctSlivers):
+      // without that, failed fabric spray of one twentieth of a node's volume went through a 1.4 mm aluminium plate.
+      // Volume, not mass: a light body (fabric on aluminium) is no sliver for being light.
+      int touching[kMaxBodies], slivers[kMaxBodies];
+      int contactCount = 0, sliverCount = 0;
+      if (contact && count > 1) {
+        double vt = 0;
+        for (int k = 0; k < count; ++k) vt += m[ids[k]] / bodyDensity_[ids[k]];
+        for (int k = 0; k < count; ++k)
+          if (m[ids[k]] / bodyDensity_[ids[k]] >= kContactVolumeFraction * vt)
+            touching[contactCount++] = ids[k];
+          else
+            slivers[sliverCount++] = ids[k];
       }
-      Vec<D> before[kMaxBodies];
-      if (integrate)
-        for (int k = 0; k < count; ++k) before[ids[k]] = v[ids[k]];
-      if (contactCount > 1) {
-        correctContact<D>(v, m, normal, touching, contactCount, mu);
-        if (integrate)
-          for (int k = 0; k < contactCount; ++k)
-            if (!(v[touching[k]] - before[touching[k]]).isZero(0.0)) corrected_[touching[k] * N + n] |= kByContact;
-      }
-      if (sliverCount > 0) {
-        int dominant = touching[0];
-        double mt = 0;
-        Vec<D> p = Vec<D>::Zero();
+      if ((integrate || !keepCorrected) && (contactCount > 1 || (contactCount == 1 && sliverCount > 0))) {
+        Vec<D> total = Vec<D>::Zero();
+        for (int k = 0; k < contactCount; ++k) total += scatter_[touching[k] * N + n].gradient;
+        // sum_p m_p grad N_I(x_p) points from a body towards the node, i.e. along the body's outward normal at its
+        // surface. Body b's normal uses its own gradient minus the others', so two bodies get opposite normals.
         for (int k = 0; k < contactCount; ++k) {
           const int b = touching[k];
-          if (m[b] > m[dominant]) dominant = b;
-          mt += m[b];
-          p += m[b] * v[b];
+          Vec<D> g = 2.0 * scatter_[b * N + n].gradient - total;
+          // On a symmetry plane the mirrored half is missing from the sum; by symmetry the true normal lies in the
+          // plane, so the component across it is dropped.
+          if (anyBoundary)
+            for (int a = 0; a < D; ++a)
+              if ((index[a] == 0 && spec_.boundary[2 * a] == BoundaryKind::symmetry) ||
+                  (index[a] == nodes_[a] - 1 && spec_.boundary[2 * a + 1] == BoundaryKind::symmetry))
+                g[a] = 0.0;
+          const double len = g.norm();
+          normal[b] = len > 0 ? Vec<D>(g / len) : Vec<D>::Zero();
         }
-        // The slivers' momentum velocities; during the integration velocityChange_ holds them. Their correction is
-        // neither tallied nor kept through the MUSL remap (see correctSlivers). What they lose, the bodies they
-        // struck gain, as a common velocity.
-        Vec<D> momentumVelocity[kMaxBodies];
-        for (int k = 0; k < sliverCount; ++k)
-          momentumVelocity[slivers[k]] = integrate ? velocityChange_[slivers[k] * N + n] : v[slivers[k]];
-        const Vec<D> taken = correctSlivers<D>(v, m, momentumVelocity, slivers, sliverCount, p / mt, -normal[dominant]);
-        for (int k = 0; k < contactCount; ++k) v[touching[k]] -= taken / mt;
+        Vec<D> before[kMaxBodies];
+        if (integrate)
+          for (int k = 0; k < count; ++k) before[ids[k]] = v[ids[k]];
+        if (contactCount > 1) {
+          correctContact<D>(v, m, normal, touching, contactCount, mu);
+          if (integrate)
+            for (int k = 0; k < contactCount; ++k)
+              if (!(v[touching[k]] - before[touching[k]]).isZero(0.0)) corrected_[touching[k] * N + n] |= kByContact;
+        }
+        if (sliverCount > 0) {
+          int dominant = touching[0];
+          double mt = 0;
+          Vec<D> p = Vec<D>::Zero();
+          for (int k = 0; k < contactCount; ++k) {
+            const int b = touching[k];
+            if (m[b] > m[dominant]) dominant = b;
+            mt += m[b];
+            p += m[b] * v[b];
+          }
+          // The slivers' momentum velocities; during the integration velocityChange_ holds them. Their correction is
+          // neither tallied nor kept through the MUSL remap (see correctSlivers). What they lose, the bodies they
+          // struck gain, as a common velocity.
+          Vec<D> momentumVelocity[kMaxBodies];
+          for (int k = 0; k < sliverCount; ++k)
+            momentumVelocity[slivers[k]] = integrate ? velocityChange_[slivers[k] * N + n] : v[slivers[k]];
+          const Vec<D> taken =
+              correctSlivers<D>(v, m, momentumVelocity, slivers, sliverCount, p / mt, -normal[dominant]);
+          for (int k = 0; k < contactCount; ++k) v[touching[k]] -= taken / mt;
+        }
+        // The work of both corrections is tallied on the particles (gridToParticles) from the change they made here.
+        if (integrate)
+          for (int k = 0; k < count; ++k) {
+            const long i = ids[k] * N + n;
+            contactDelta_[i] = v[ids[k]] - before[ids[k]];
+            if (!(corrected_[i] & kByContact) && !contactDelta_[i].isZero(0.0)) corrected_[i] |= kBySliver;
+            if (strainFromIntegration) strainWork -= dt * scatter_[i].force.dot(contactDelta_[i]);
+          }
       }
-      // The work of both corrections is tallied on the particles (gridToParticles) from the change they made here.
-      if (integrate)
+      if (anyBoundary) {
         for (int k = 0; k < count; ++k) {
-          const long i = ids[k] * N + n;
-          contactDelta_[i] = v[ids[k]] - before[ids[k]];
-          if (!(corrected_[i] & kByContact) && !contactDelta_[i].isZero(0.0)) corrected_[i] |= kBySliver;
-          if (strainFromIntegration) strainWork -= dt * scatter_[i].force.dot(contactDelta_[i]);
+          const int b = ids[k];
+          const double cn = integrate ? 2.0 * bodyWaveSpeed_[b] * dt / h : 0.0;
+          const double cs = integrate ? 2.0 * bodyShearSpeed_[b] * dt / h : 0.0;
+          const Vec<D> dashpot = applyFaceConditions<D>(v[b], spec_.boundary, index, nodes_, cn, cs);
+          if (integrate && trackBoundary_ && !dashpot.isZero(0.0)) {
+            boundaryDelta_[b * N + n] = dashpot;
+            corrected_[b * N + n] |= kByBoundary;
+          }
         }
-    }
-    if (anyBoundary) {
+      }
       for (int k = 0; k < count; ++k) {
         const int b = ids[k];
-        const double cn = integrate ? 2.0 * bodyWaveSpeed_[b] * dt / h : 0.0;
-        const double cs = integrate ? 2.0 * bodyShearSpeed_[b] * dt / h : 0.0;
-        const Vec<D> dashpot = applyFaceConditions<D>(v[b], spec_.boundary, index, nodes_, cn, cs);
-        if (integrate && trackBoundary_ && !dashpot.isZero(0.0)) {
-          boundaryDelta_[b * N + n] = dashpot;
-          corrected_[b * N + n] |= kByBoundary;
+        const long i = b * N + n;
+        if (integrate) velocityChange_[i] = v[b] - velocityChange_[i];
+        if (integrate && keepCorrected) correctedVelocity_[i] = v[b];
+        // MUSL remap: where the contact correction acted in this step, the body keeps the corrected velocity. The
+        // remapped one re-mixes momenta that FLIP left off the contact constraint, and a strain increment taken
+        // from it gained energy (two elastic spheres rebounded with 10 % more than they had).
+        if (integrate || keepCorrected || !(contact && (corrected_[i] & kByContact))) velocity_[i] = v[b];
+        // The strain increment takes these velocities; where the corrections changed them from the plain remap, the
+        // stress power they add (or take) is work of the contact, not of the internal forces (see EnergyBalance).
+        // Per-particle contact strain tallies it on the particles instead (updateStress). A node of one body was
+        // not corrected: its velocity is the plain one.
+        if (!integrate && contact && !keepCorrected && count > 1) {
+          Vec<D> plain = remappedMomentum_[i] / m[b];
+          if (anyBoundary) applyFaceConditions<D>(plain, spec_.boundary, index, nodes_, 0.0, 0.0);
+          strainWork -= dt * scatter_[i].force.dot(velocity_[i] - plain);
         }
-      }
-    }
-    for (int k = 0; k < count; ++k) {
-      const int b = ids[k];
-      const long i = b * N + n;
-      if (integrate) velocityChange_[i] = v[b] - velocityChange_[i];
-      if (integrate && keepCorrected) correctedVelocity_[i] = v[b];
-      // MUSL remap: where the contact correction acted in this step, the body keeps the corrected velocity. The
-      // remapped one re-mixes momenta that FLIP left off the contact constraint, and a strain increment taken
-      // from it gained energy (two elastic spheres rebounded with 10 % more than they had).
-      if (integrate || keepCorrected || !(contact && (corrected_[i] & kByContact))) velocity_[i] = v[b];
-      // The strain increment takes these velocities; where the corrections changed them from the plain remap, the
-      // stress power they add (or take) is work of the contact, not of the internal forces (see EnergyBalance).
-      // Per-particle contact strain tallies it on the particles instead (updateStress). A node of one body was
-      // not corrected: its velocity is the plain one.
-      if (!integrate && contact && !keepCorrected && count > 1) {
-        Vec<D> plain = remappedMomentum_[i] / m[b];
-        if (anyBoundary) applyFaceConditions<D>(plain, spec_.boundary, index, nodes_, 0.0, 0.0);
-        strainWork -= dt * scatter_[i].force.dot(velocity_[i] - plain);
       }
     }
   }
@@ -660,9 +717,7 @@ void Solver<D>::gridToParticles() {
 template <int D>
 void Solver<D>::remapMomentum() {
   const StageClock clock(stageTimes_.remap);
-  const std::size_t fields = scatter_.size();
-#pragma omp parallel for schedule(static) num_threads(threads_) if (parallel_)
-  for (long i = 0; i < static_cast<long>(fields); ++i) remappedMomentum_[i].setZero();
+  clearInBoxes(remappedMomentum_, Vec<D>::Zero().eval());
   scatterByColour([&](int p) {
     const long off = bodies_ > 1 ? static_cast<long>(particles_.body[p]) * static_cast<long>(nodeCount_) : 0;
     const Vec<D> mv = particles_.mass[p] * particles_.velocity[p];

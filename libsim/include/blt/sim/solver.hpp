@@ -7,8 +7,10 @@
 // D = 3: Cartesian 3D. D = 2: axisymmetric (r, z) by default (r = axis 0, the symmetry axis at r = 0 must be
 // the grid's lower face on axis 0 with a symmetry boundary), or plane strain.
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -157,6 +159,49 @@ struct ScatterNode {
   Vec<D> gradient = Vec<D>::Zero();
 };
 
+// A box of grid nodes by index, bounds included; empty when lo > hi on an axis. The grid stages visit only the
+// nodes of each body's box: in a clamped plate struck by a long rod most of the grid is empty at any step.
+template <int D>
+struct NodeBox {
+  std::array<int, D> lo, hi;
+  static NodeBox none() {
+    NodeBox b;
+    b.lo.fill(std::numeric_limits<int>::max());
+    b.hi.fill(std::numeric_limits<int>::min());
+    return b;
+  }
+  bool empty() const {
+    for (int a = 0; a < D; ++a)
+      if (lo[a] > hi[a]) return true;
+    return false;
+  }
+  void include(const NodeBox& o) {
+    for (int a = 0; a < D; ++a) {
+      lo[a] = std::min(lo[a], o.lo[a]);
+      hi[a] = std::max(hi[a], o.hi[a]);
+    }
+  }
+  // Rows along axis 0: their number, and the indices of row k on the other axes.
+  long rows() const {
+    if (empty()) return 0;
+    long r = 1;
+    for (int a = 1; a < D; ++a) r *= hi[a] - lo[a] + 1;
+    return r;
+  }
+  void rowIndex(long k, int* index) const {
+    for (int a = 1; a < D; ++a) {
+      const long span = hi[a] - lo[a] + 1;
+      index[a] = lo[a] + static_cast<int>(k % span);
+      k /= span;
+    }
+  }
+  bool containsRow(const int* index) const {
+    for (int a = 1; a < D; ++a)
+      if (index[a] < lo[a] || index[a] > hi[a]) return false;
+    return true;
+  }
+};
+
 // Wall time spent in each stage of the step, s, summed since the solver was made (for `blt bench sim`; the
 // clock is read twice a stage, a few hundred nanoseconds a step).
 struct StageTimes {
@@ -227,6 +272,8 @@ class Solver {
   double hoopRadius(int p) const { return std::max(particles_.position[p][0], particles_.halfSize[p][0]); }
   template <class F>
   void scatterByColour(F&& body);
+  template <class T>
+  void clearInBoxes(std::vector<T>& field, const T& zero);
 
   GridSpec<D> spec_;
   SolverOptions options_;
@@ -250,6 +297,11 @@ class Solver {
   // kByBoundary); unmarked entries are stale. Few nodes are corrected, so grid to particles reads the deltas
   // only there, and the grid update need not clear them everywhere.
   std::vector<std::uint8_t> corrected_;
+  // Per body: the nodes this step's stencils reach (computeShapeFunctions), those the last particles-to-grid
+  // wrote, and their hull, which the grid stages of this step visit. Every entry outside the hull has no mass
+  // and holds zeros, as nothing wrote it since it was last cleared.
+  std::vector<NodeBox<D>> stencilBox_, writtenBox_, gridBox_;
+  std::vector<NodeBox<D>> threadBox_;  // computeShapeFunctions' per-thread boxes, [thread][body]
   bool trackBoundary_ = false;
   std::array<bool, 2 * D> walls_{};  // faces that material may not cross (fixed, symmetry)
   std::vector<double> bodyWaveSpeed_, bodyShearSpeed_;
