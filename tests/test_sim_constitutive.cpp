@@ -61,6 +61,30 @@ Mat3 rotation() {
   return Eigen::AngleAxisd(0.7, Eigen::Vector3d(1.0, -2.0, 0.5).normalized()).toRotationMatrix();
 }
 
+// Strains the card's material in pure shear at `rate` from temperature T0 to a plastic strain of 0.05 and checks
+// that every step with a plastic rate above minPlasticRate ends on flowCurve(ep, plastic rate, T), the curve
+// written out by the caller (not through the strength model), at the step's end strain and plastic rate and the
+// temperature it started from (the heating follows the return).
+template <class Curve>
+void checkReturnLandsOnCurve(const Material& card, double rate, double dt, double T0, double minPlasticRate,
+                             Curve&& flowCurve) {
+  const SolidMaterial m = makeSolidMaterial(card);
+  const Mat3 D = pureShear(rate);
+  PointState s = freshState(m, T0);
+  int plasticSteps = 0;
+  for (int i = 0; i < 2000 && s.plasticStrain < 0.05; ++i) {
+    const double before = s.plasticStrain, T = s.temperature;
+    m.update(s, D, kZero, dt, 0.0);
+    const double plasticRate = (s.plasticStrain - before) / dt;
+    if (plasticRate > minPlasticRate) {
+      ++plasticSteps;
+      CHECK(vonMises(s.stress) == relApprox(flowCurve(s.plasticStrain, plasticRate, T), 1e-8));
+    }
+  }
+  CHECK(plasticSteps > 100);
+  CHECK(s.plasticStrain >= 0.05);
+}
+
 }  // namespace
 
 TEST_SUITE("constitutive") {
@@ -311,53 +335,24 @@ TEST_CASE("bilinear strength with a rate term: (sigma_y0 + H ep)(1 + C ln(rate/r
 }
 
 TEST_CASE("radial return, Johnson-Cook: each step lands on the flow curve at its own plastic rate and temperature") {
-  // 2A12 (seed 000 Table 3) in pure shear at 1e5 1/s from 400 K: sigma_vm after each plastic step is
-  // (A + B ep^n)(1 + C ln(dep/dt / rate0))(1 - T*^m) at the step's end strain and plastic rate and the temperature
-  // it started from (the heating follows the return), written out here, not through the strength model.
-  const SolidMaterial m = makeSolidMaterial(MaterialLibrary::load().get("al_2a12"));
+  // 2A12 (seed 000 Table 3) in pure shear at 1e5 1/s from 400 K: (A + B ep^n)(1 + C ln(dep/dt / rate0))(1 - T*^m).
   const double A = 265e6, B = 426e6, n = 0.34, C = 0.015, Tr = 293, Tm = 900;
-  const double dt = 2e-9;
-  const Mat3 D = pureShear(1e5);
-  PointState s = freshState(m, 400.0);
-  int plasticSteps = 0;
-  for (int i = 0; i < 2000 && s.plasticStrain < 0.05; ++i) {
-    const double before = s.plasticStrain, T = s.temperature;
-    m.update(s, D, kZero, dt, 0.0);
-    const double plasticRate = (s.plasticStrain - before) / dt;
-    if (plasticRate > 1.0) {
-      ++plasticSteps;
-      const double byHand = (A + B * std::pow(s.plasticStrain, n)) * (1 + C * std::log(plasticRate)) *
-                            (1 - (T - Tr) / (Tm - Tr));
-      CHECK(vonMises(s.stress) == relApprox(byHand, 1e-8));
-    }
-  }
-  CHECK(plasticSteps > 100);
-  CHECK(s.plasticStrain >= 0.05);
+  checkReturnLandsOnCurve(MaterialLibrary::load().get("al_2a12"), 1e5, 2e-9, 400.0, 1.0,
+                          [&](double ep, double rate, double T) {
+                            return (A + B * std::pow(ep, n)) * (1 + C * std::log(rate)) * (1 - (T - Tr) / (Tm - Tr));
+                          });
 }
 
 TEST_CASE("radial return, modified Johnson-Cook: lands on the flow curve with the steep rate term (1 + rate/rate0)^C") {
   // Q235 (seed 003 Table 1, Eq. 18): C = 0.1 on rate0 = 1.1e-3 1/s, so the flow stress climbs by a factor of 2 over
-  // the first 1e-8 of plastic strain in a 20 ns step; the return must still land on the curve at the step's own
-  // plastic rate. Written out here, not through the strength model. Pure shear at 1e4 1/s from room temperature.
-  const SolidMaterial m = makeSolidMaterial(MaterialLibrary::load().get("q235"));
+  // the first 1e-8 of plastic strain in a 20 ns step; the return must still land on the curve. Pure shear at
+  // 1e4 1/s from room temperature.
   const double A = 229e6, B = 439e6, n = 0.503, C = 0.1, rate0 = 1.1e-3, mExp = 0.55, Tr = 300, Tm = 1795;
-  const double dt = 20e-9;
-  const Mat3 D = pureShear(1e4);
-  PointState s = freshState(m, 300.0);
-  int plasticSteps = 0;
-  for (int i = 0; i < 2000 && s.plasticStrain < 0.05; ++i) {
-    const double before = s.plasticStrain, T = s.temperature;
-    m.update(s, D, kZero, dt, 0.0);
-    const double plasticRate = (s.plasticStrain - before) / dt;
-    if (plasticRate > 0.0) {
-      ++plasticSteps;
-      const double thermal = T > Tr ? 1 - std::pow((T - Tr) / (Tm - Tr), mExp) : 1.0;
-      const double byHand = (A + B * std::pow(s.plasticStrain, n)) * std::pow(1 + plasticRate / rate0, C) * thermal;
-      CHECK(vonMises(s.stress) == relApprox(byHand, 1e-8));
-    }
-  }
-  CHECK(plasticSteps > 100);
-  CHECK(s.plasticStrain >= 0.05);
+  checkReturnLandsOnCurve(MaterialLibrary::load().get("q235"), 1e4, 20e-9, 300.0, 0.0,
+                          [&](double ep, double rate, double T) {
+                            const double thermal = T > Tr ? 1 - std::pow((T - Tr) / (Tm - Tr), mExp) : 1.0;
+                            return (A + B * std::pow(ep, n)) * std::pow(1 + rate / rate0, C) * thermal;
+                          });
 }
 
 TEST_CASE("Johnson-Cook adiabatic heating: dT = chi W_p / (rho cp)") {
