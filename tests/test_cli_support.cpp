@@ -36,7 +36,7 @@ TEST_CASE("cli: number() gives the significant digits asked for") {
   CHECK(cli::number(1234567.0, 3) == "1.23e+06");
 }
 
-TEST_CASE("cli: a progress line gives step, times in us and ns, particles, wall time and ETA; kinetic energy on request") {
+TEST_CASE("cli: a progress line gives step, times in us and ns, particles, wall time and ETA, kinetic energy on request") {
   sim::RunProgress p;
   p.step = 726;
   p.time = 15e-6;
