@@ -380,7 +380,9 @@ void Solver<D>::clearInBoxes(std::vector<T>& field, const T& zero) {
   const long N = static_cast<long>(nodeCount_);
   for (int b = 0; b < bodies_; ++b) {
     const NodeBox<D>& box = gridBox_[b];
-    const long rows = box.rows(), length = box.hi[0] - box.lo[0] + 1;
+    const long rows = box.rows();
+    if (rows == 0) continue;  // an empty box's bounds are the int limits: no length to take
+    const long length = static_cast<long>(box.hi[0]) - box.lo[0] + 1;
 #pragma omp parallel for schedule(static) num_threads(threads_) if (parallel_)
     for (long k = 0; k < rows; ++k) {
       int index[D];
