@@ -152,14 +152,14 @@ TEST_CASE("JohnsonCookStrength: 2A12 card against the formula, melt and low rate
   CHECK(jc.yieldStress(ep, rate, T) == relApprox(byHand, 1e-12));
   CHECK(jc.homologousTemperature(T) == relApprox((T - Tr) / (Tm - Tr), 1e-12));
   // d sigma / d ep = B n ep^(n-1) times the rate and thermal factors.
-  const StrengthModel::FlowStress fs = jc.flowStress(ep, rate, T);
+  const StrengthModel::FlowStress fs = jc.flowStress(ep, rate, jc.thermalState(T));
   CHECK(fs.value == jc.yieldStress(ep, rate, T));
   CHECK(fs.dPlasticStrain == relApprox(B * n * std::pow(ep, n - 1) * (1 + C * std::log(rate)) *
                                            (1 - (T - Tr) / (Tm - Tr)), 1e-12));
   // d sigma / d rate = (A + B ep^n) C / rate times the thermal factor.
   CHECK(fs.dRate == relApprox((A + B * std::pow(ep, n)) * C / rate * (1 - (T - Tr) / (Tm - Tr)), 1e-12));
   // Below the reference rate the rate term is flat.
-  CHECK(jc.flowStress(ep, 0.5, T).dRate == 0.0);
+  CHECK(jc.flowStress(ep, 0.5, jc.thermalState(T)).dRate == 0.0);
   // At and above melting: no strength.
   CHECK(jc.yieldStress(ep, rate, Tm) == 0.0);
   CHECK(jc.yieldStress(ep, rate, 1500.0) == 0.0);
@@ -179,7 +179,7 @@ TEST_CASE("JohnsonCookStrength: 2A12 card against the formula, melt and low rate
   // The elastic trial's zero rate and room temperature: (1 + 0)^C = 1 and T* = 0.
   CHECK(q.johnsonCook->yieldStress(0.05, 0.0, 300.0) == relApprox(229e6 + 439e6 * std::pow(0.05, 0.503), 1e-12));
   // Its rate slope: C (1 + rate/rate0)^(C-1) / rate0 times the strain and thermal factors.
-  CHECK(q.johnsonCook->flowStress(0.05, 10.0, 500.0).dRate ==
+  CHECK(q.johnsonCook->flowStress(0.05, 10.0, q.johnsonCook->thermalState(500.0)).dRate ==
         relApprox(qHand * 0.1 / (1 + 10.0 / 1.1e-3) / 1.1e-3, 1e-12));
   // The same constants read with the classic rate term (card q235_jc): 1 + C ln(rate/rate0).
   const SolidMaterial qc = makeSolidMaterial(MaterialLibrary::load().get("q235_jc"));
@@ -199,7 +199,7 @@ TEST_CASE("ZerilliArmstrongFccStrength: cu_ofhc_za card against the formula, low
   const double ep = 0.25, rate = 1000, T = 400;
   const double factor = std::exp(-C3 * T + C4 * T * std::log(rate));
   CHECK(za->yieldStress(ep, rate, T) == relApprox(C0 + C2 * std::sqrt(ep) * factor, 1e-12));
-  const StrengthModel::FlowStress fs = za->flowStress(ep, rate, T);
+  const StrengthModel::FlowStress fs = za->flowStress(ep, rate, za->thermalState(T));
   CHECK(fs.value == relApprox(C0 + C2 * std::sqrt(ep) * factor, 1e-12));
   CHECK(fs.dPlasticStrain == relApprox(0.5 * C2 / std::sqrt(ep) * factor, 1e-12));
   CHECK(fs.dRate == relApprox(C2 * std::sqrt(ep) * factor * C4 * T / rate, 1e-12));
@@ -295,7 +295,7 @@ TEST_CASE("bilinear strength with a rate term: (sigma_y0 + H ep)(1 + C ln(rate/r
   // The flow curve and its slope against Johnson-Cook's rate term written out.
   const double ep = 0.1, rate = 1e3;
   CHECK(m.strength->yieldStress(ep, rate, 293) == relApprox((Y0 + H * ep) * (1 + C * std::log(rate / rate0)), 1e-12));
-  const StrengthModel::FlowStress fs = m.strength->flowStress(ep, rate, 293);
+  const StrengthModel::FlowStress fs = m.strength->flowStress(ep, rate, m.strength->thermalState(293));
   CHECK(fs.dPlasticStrain == relApprox(H * (1 + C * std::log(rate / rate0)), 1e-12));
   CHECK(fs.dRate == relApprox((Y0 + H * ep) * C / rate, 1e-12));
   // At or below the reference rate the term is 1: it hardens, never softens.

@@ -104,7 +104,7 @@ double JohnsonCookStrength::yieldStress(double ep, double rate, double temperatu
   return strain * rateFactor(rate) * thermalFactor(temperature);
 }
 
-StrengthModel::FlowStress JohnsonCookStrength::flowStress(double ep, double rate, double temperature) const {
+StrengthModel::FlowStress JohnsonCookStrength::flowStress(double ep, double rate, const ThermalState& thermal) const {
   // The same products as yieldStress, so that the value is the same to the last bit; one pow serves the value
   // and the slope B n ep^(n-1) = B n ep^n / ep.
   const double power = ep > 0 ? std::pow(ep, p_.n) : 0.0;
@@ -121,8 +121,8 @@ StrengthModel::FlowStress JohnsonCookStrength::flowStress(double ep, double rate
       if (factor != 1.0) factorSlope = p_.C / rate;
     }
   }
-  const double thermal = thermalFactor(temperature);
-  return {strain * factor * thermal, strainSlope * factor * thermal, strain * factorSlope * thermal};
+  const double t = thermal.factor;
+  return {strain * factor * t, strainSlope * factor * t, strain * factorSlope * t};
 }
 
 double ZerilliArmstrongFccStrength::thermalRateFactor(double rate, double temperature) const {
@@ -134,14 +134,16 @@ double ZerilliArmstrongFccStrength::yieldStress(double ep, double rate, double t
   return p_.C0 + p_.C2 * std::sqrt(std::max(ep, 0.0)) * thermalRateFactor(rate, temperature);
 }
 
-StrengthModel::FlowStress ZerilliArmstrongFccStrength::flowStress(double ep, double rate, double temperature) const {
+StrengthModel::FlowStress ZerilliArmstrongFccStrength::flowStress(double ep, double rate,
+                                                                   const ThermalState& thermal) const {
+  const double temperature = thermal.temperature;
   const double factor = thermalRateFactor(rate, temperature);
   const double root = std::sqrt(std::max(ep, 0.0));
   const double rateSlope = rate > p_.referenceRate ? p_.C2 * root * factor * p_.C4 * temperature / rate : 0.0;
   return {p_.C0 + p_.C2 * root * factor, 0.5 * p_.C2 / std::sqrt(std::max(ep, 1e-6)) * factor, rateSlope};
 }
 
-StrengthModel::FlowStress BilinearStrength::flowStress(double ep, double rate, double) const {
+StrengthModel::FlowStress BilinearStrength::flowStress(double ep, double rate, const ThermalState&) const {
   const double factor = rateFactor(rate);
   const double rateSlope = factor != 1.0 ? (yield_ + h_ * ep) * c_ / rate : 0.0;
   return {(yield_ + h_ * ep) * factor, h_ * factor, rateSlope};
@@ -218,8 +220,9 @@ PointUpdate SolidMaterial::update(PointState& s, const Mat3& D, const Mat3& W, d
         double lo = 0.0, hi = threeG > 0 ? (seqTrial - y0) / threeG : 0.0;
         dep = hi;
         bool flowAtDep = false;  // whether `flow` is the flow stress at the current dep
+        const StrengthModel::ThermalState thermal = strength->thermalState(s.temperature);
         for (int it = 0; it < 30 && threeG > 0; ++it) {
-          const StrengthModel::FlowStress y = strength->flowStress(s.plasticStrain + dep, dep / dt, s.temperature);
+          const StrengthModel::FlowStress y = strength->flowStress(s.plasticStrain + dep, dep / dt, thermal);
           flow = y.value;
           flowAtDep = true;
           const double f = seqTrial - threeG * dep - y.value;

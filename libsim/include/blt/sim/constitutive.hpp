@@ -86,13 +86,22 @@ class StrengthModel {
     double dPlasticStrain = 0; // Pa
     double dRate = 0;          // Pa s
   };
+  // What a model needs of the temperature, taken once per return map: the map holds the temperature fixed while
+  // it iterates on the plastic increment, so a temperature factor of its own (Johnson-Cook's 1 - T*^m) need not be
+  // recomputed at each iteration.
+  struct ThermalState {
+    double temperature = 0;  // K
+    double factor = 1;       // the model's temperature factor where it has a separate one, else 1
+  };
   virtual ~StrengthModel() = default;
   virtual bool plastic() const { return true; }
   virtual double yieldStress(double plasticStrain, double rate, double temperature) const = 0;
+  virtual ThermalState thermalState(double temperature) const { return {temperature, 1.0}; }
   // The slopes are those of yieldStress where it is smooth; at a kink (Johnson-Cook's rate term at the reference
   // rate) either side's. Where d/d(plastic strain) is infinite (ep^n, n < 1, at ep = 0) it is capped at
-  // ep = 1e-6: the return map brackets its root, so a capped slope only slows one iteration.
-  virtual FlowStress flowStress(double plasticStrain, double rate, double temperature) const = 0;
+  // ep = 1e-6: the return map brackets its root, so a capped slope only slows one iteration. `thermal` comes from
+  // thermalState; the value equals yieldStress at its temperature to the last bit.
+  virtual FlowStress flowStress(double plasticStrain, double rate, const ThermalState& thermal) const = 0;
 };
 
 // Johnson-Cook's rate term 1 + C ln(rate/rate0) for rates above rate0, else 1 (seed 000 Eq. 9); shared by the
@@ -106,7 +115,7 @@ class ElasticStrength final : public StrengthModel {
  public:
   bool plastic() const override { return false; }
   double yieldStress(double, double, double) const override { return 0; }
-  FlowStress flowStress(double, double, double) const override { return {}; }
+  FlowStress flowStress(double, double, const ThermalState&) const override { return {}; }
 };
 
 // sigma_y = (sigma_y0 + H ep) (1 + C ln max(rate/rate0, 1)) with the plastic modulus H = E Et / (E - Et) from the
@@ -117,7 +126,7 @@ class BilinearStrength final : public StrengthModel {
   BilinearStrength(double yield, double youngs, double tangent, double rateCoefficient = 0.0,
                    double referenceRate = 1.0);
   double yieldStress(double ep, double rate, double) const override { return (yield_ + h_ * ep) * rateFactor(rate); }
-  FlowStress flowStress(double ep, double rate, double) const override;
+  FlowStress flowStress(double ep, double rate, const ThermalState&) const override;
 
  private:
   double rateFactor(double rate) const { return johnsonCookRateFactor(rate, c_, rate0_); }
@@ -137,7 +146,8 @@ class JohnsonCookStrength final : public StrengthModel {
   };
   explicit JohnsonCookStrength(const Parameters& p) : p_(p) {}
   double yieldStress(double ep, double rate, double temperature) const override;
-  FlowStress flowStress(double ep, double rate, double temperature) const override;
+  ThermalState thermalState(double temperature) const override { return {temperature, thermalFactor(temperature)}; }
+  FlowStress flowStress(double ep, double rate, const ThermalState& thermal) const override;
   double homologousTemperature(double temperature) const;
 
  private:
@@ -158,7 +168,7 @@ class ZerilliArmstrongFccStrength final : public StrengthModel {
   };
   explicit ZerilliArmstrongFccStrength(const Parameters& p) : p_(p) {}
   double yieldStress(double ep, double rate, double temperature) const override;
-  FlowStress flowStress(double ep, double rate, double temperature) const override;
+  FlowStress flowStress(double ep, double rate, const ThermalState& thermal) const override;
 
  private:
   double thermalRateFactor(double rate, double temperature) const;
