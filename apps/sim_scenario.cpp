@@ -193,7 +193,16 @@ void runBisect(const BisectCliOptions& o) {
                         {"half_width" + key, b.resolved ? value(0.5 * (b.smallestPerforating - b.largestSafe)) : nlohmann::json()},
                         {"run_count", b.runs.size()},
                         {"runs", runs}};
-  if (o.scenario.json) return printJson(doc);
+  if (o.scenario.json) {
+    // The runs' lines went to stderr and the result goes to stdout: a closing line on stderr says, to whoever
+    // watches the runs, that the bisection is over.
+    if (b.resolved)
+      std::fprintf(stderr, "bisection resolved: ballistic limit %.5g +- %.3g %s after %zu runs\n", b.estimate() * scale,
+                   0.5 * (b.smallestPerforating - b.largestSafe) * scale, unit, b.runs.size());
+    else
+      std::fprintf(stderr, "bisection not resolved after %zu runs: %s\n", b.runs.size(), b.message.c_str());
+    return printJson(doc);
+  }
   if (!b.resolved) std::printf("not resolved: %s\n", b.message.c_str());
   std::printf("largest %s not perforating: %s\nsmallest %s perforating: %s\n", o.on.c_str(),
               std::isnan(b.largestSafe) ? "none found" : (std::to_string(b.largestSafe * scale) + " " + unit).c_str(),

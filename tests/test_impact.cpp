@@ -527,6 +527,8 @@ TEST_CASE("blt sim run and blt sim bisect from the command line") {
   CHECK(bis.contains("largest_not_perforating_mm"));
   CHECK(bis.contains("largest_not_perforating_settled"));
   CHECK(contains(b.output, "  run diameter = "));  // progress, one line per run on stderr, with --json too
+  // and a closing line there, as the result goes to stdout only
+  CHECK(contains(b.output, bis["resolved"].get<bool>() ? "bisection resolved: ballistic limit " : "bisection not resolved"));
 
   // An ensemble over grid offsets: one run per offset, and the count is of those runs' own verdicts.
   const BltRun e = runBlt("sim run '" + file.string() + "' --ensemble 2 --json --threads 1");
