@@ -23,21 +23,20 @@ namespace blt::sim {
 
 enum class UpdateSchemeKind { musl, usl };
 enum class ContactMode { multiField, singleField };
-// Which nodal velocities give a particle its strain increment in a MUSL step with the multi-field contact.
-// - perNode: the MUSL remap's, except at nodes the contact corrected in this step, which keep the corrected
-//   velocity. Two elastic spheres then rebound without gaining energy, but in seed 003's T2T2 (two clamped plates
-//   in contact, 150 m/s, default spacing) kinetic + internal energy rises to 100.3 % of the impact energy by
-//   100 us while the contact tallies 6.7 % taken, and at 0.125 mm rows of points at the clamped edge swing
-//   against each other, growing until the energy guard stops the run (142.5 m/s, at 283.5 us).
+// Which nodal velocities give a particle its strain increment in a MUSL step with the multi-field contact. The
+// contact corrects the nodal velocities of the update only; the MUSL remap is not corrected.
+// - perNode: the plain remap's, except at nodes the contact corrected in this step, which keep the corrected
+//   velocity, the one that moved the particles. With FLIP and these strain velocities the contact cannot raise a
+//   step's kinetic + internal energy, the slivers' correction aside (docs/validation/README.md, stop 43): two
+//   elastic spheres rebound with at most 99.8 % of their energy, and in seed 003's T2T2 (two clamped plates in
+//   contact, 150 m/s) it falls to 97.7 % by 100 us. Until stop 43 the remap was corrected as well, and the nodes
+//   the update had left alone took that second correction, which no particle received: T2T2 then rose to
+//   100.3 %, and T4T4T4 at 348.2 m/s gained 18 J (5 %) and went unstable at 435 us.
 // - perParticle: a particle with a node of non-zero weight that the contact corrected in this step takes the
 //   corrected (end-of-step grid) velocities at all its nodes, the velocities that moved it, and the others the
-//   remap's; the remap is then not corrected. T2T2 at 150 m/s: 96.8 % at 100 us and 1.4 % tallied; at 0.125 mm
-//   and 142.5 m/s it runs to 300 us with nothing swinging at the edge (97.8 %). It takes more energy out of the
-//   plates than perNode, and seed 003's limits rise further from the measured ones: T4 and T2T2 both
-//   (168.75, 172.5] m/s against (150, 153.75] and 161.6 per node (measured 133.8 and 127.8); and the 3D and
-//   axisymmetric runs of the verification impact differ by 7.4 % against 3.2 %. So perNode stays the default.
-//   (The 0.125 mm run and the 7.4 % were measured when zero-weight nodes of a stencil counted too; T4 was then
-//   (161.25, 165].)
+//   remap's. T2T2 at 150 m/s: 96.8 % at 100 us (stop 35). It takes more energy out of the plates than perNode and
+//   moved the 3D and axisymmetric runs of the verification impact 7.4 % apart (stop 34), so perNode is the
+//   default.
 enum class ContactStrain { perNode, perParticle };
 // Boundary of one grid face:
 // - free: nothing imposed (material must stay inside the grid; a particle that leaves it is deactivated);
@@ -123,10 +122,11 @@ struct GridSpec {
 // 100.0 %; a symmetric flyer plate across the contact 99.8 %; light spray stopped by a plate through the sliver
 // correction 99.9 %; a 1 mm sphere at 3.09 km/s into seed 000's fabric target (multi-field, axisymmetric, 12 us)
 // 99.8 % per-node and 100.3 % per-particle (84.4 % and 73.7 % with the kinetic shares of the main correction only);
-// seed 003's T2T2 struck at 150 m/s (300 us) 100.0 % per-node, the contact tallying -0.9 %, and 100.1 %
-// per-particle; the same seed 000 shot in a coarse 3D quarter model (0.2 mm points, 5 us) 97.5 % (71.9 % before;
-// single-field 96.6 %). USL loses energy by itself (that seed 000 shot: 76.1 % single-field, 56.4 % multi-field with the
-// same tally). Fixed faces and symmetry planes do no work. total = kinetic + internal + contact + boundary.
+// seed 003's T2T2 struck at 150 m/s (300 us) 100.0 % per-node (the remap corrected too, before stop 43; the
+// contact then tallied -0.9 %) and 100.1 % per-particle; the same seed 000 shot in a coarse 3D quarter model
+// (0.2 mm points, 5 us) 97.5 % (71.9 % before; single-field 96.6 %). USL loses energy by itself (that seed 000
+// shot: 76.1 % single-field, 56.4 % multi-field with the same tally). Fixed faces and symmetry planes do no
+// work. total = kinetic + internal + contact + boundary.
 struct EnergyBalance {
   double kinetic = 0, internal = 0, plasticWork = 0, viscousWork = 0, contactDissipation = 0, boundaryWork = 0;
   double total() const { return kinetic + internal + contactDissipation + boundaryWork; }
