@@ -139,6 +139,19 @@ TEST_CASE("MieGrueneisen: p = rho0 Us up on the Hugoniot, bulk modulus rho0 c0^2
     }
 }
 
+TEST_CASE("LinearEos: bulk modulus rho dp/drho of p = K mu, so the sound speed is the same at every density") {
+  // Independent of the class: rho dp/drho by the base class's central difference of its own pressure, and the
+  // acoustic speed of p = K (rho / rho0 - 1), dp/drho = K / rho0, at any density.
+  const double K = 160e9, rho0 = 7800;  // about steel
+  const LinearEos eos(K);
+  for (double mu : {-0.96, -0.5, -0.05, 0.0, 0.05, 0.3}) {
+    INFO("mu = " << mu);
+    CHECK(eos.bulkModulus(mu, 0.0) == relApprox(eos.EquationOfState::bulkModulus(mu, 0.0), 1e-8));
+    const double rho = rho0 * (1.0 + mu);
+    CHECK(std::sqrt(eos.bulkModulus(mu, 0.0) / rho) == relApprox(std::sqrt(K / rho0), 1e-12));
+  }
+}
+
 TEST_CASE("JohnsonCookStrength: 2A12 card against the formula, melt and low rate") {
   const SolidMaterial m = makeSolidMaterial(MaterialLibrary::load().get("al_2a12"));
   REQUIRE(m.johnsonCook);

@@ -63,13 +63,16 @@ class MieGrueneisen final : public EquationOfState {
   double rho0_, c0_, s_, gamma0_, a_;
 };
 
-// Linear pressure from the bulk modulus, p = K mu: for materials whose card has no [eos].
+// Linear pressure from the bulk modulus, p = K mu: for materials whose card has no [eos]. Its bulk modulus
+// rho dp/drho is K (1 + mu), not K: the sound speed sqrt(K / rho0) is then the same at every density. Taken as K,
+// failed Q235 debris expanded 24-fold had a sound speed of 22.6 km/s and set a time step of 3.3 ns where the
+// intact plates allow 12 ns (seed 003's T4 at 150 m/s, 0.125 mm spacing, from 90 us on).
 class LinearEos final : public EquationOfState {
  public:
   explicit LinearEos(double bulkModulus) : k_(bulkModulus) {}
   double coldPressure(double mu) const override { return k_ * mu; }
   double energyCoefficient(double) const override { return 0.0; }
-  double bulkModulus(double, double) const override { return k_; }
+  double bulkModulus(double mu, double) const override { return k_ * (1.0 + mu); }
 
  private:
   double k_;
