@@ -561,7 +561,8 @@ void Solver<D>::applyVelocityConditions(bool integrate) {
       // The contact acts in the update only. The MUSL remap is not corrected: where the update corrected a node, the
       // strain increment takes that node's corrected velocity (kept below); elsewhere the plain remap. The strain
       // velocity is then either the one that moved the particles (USL-like) or the remap of their new velocities,
-      // and a step cannot create energy (docs/validation/README.md, stop 43). Correcting the remap as well let the
+      // and the contact cannot raise a step's energy, the slivers' correction aside (docs/validation/README.md,
+      // stop 43). Correcting the remap as well let the
       // strain take, at nodes the update had left alone, velocities from a second correction that no particle
       // received: seed 003's T4T4T4 at 348.2 m/s gained 18 J (5 %) that way and went unstable at 435 us.
       if (integrate && (contactCount > 1 || (contactCount == 1 && sliverCount > 0))) {
@@ -583,13 +584,11 @@ void Solver<D>::applyVelocityConditions(bool integrate) {
           normal[b] = len > 0 ? Vec<D>(g / len) : Vec<D>::Zero();
         }
         Vec<D> before[kMaxBodies];
-        if (integrate)
-          for (int k = 0; k < count; ++k) before[ids[k]] = v[ids[k]];
+        for (int k = 0; k < count; ++k) before[ids[k]] = v[ids[k]];
         if (contactCount > 1) {
           correctContact<D>(v, m, normal, touching, contactCount, mu);
-          if (integrate)
-            for (int k = 0; k < contactCount; ++k)
-              if (!(v[touching[k]] - before[touching[k]]).isZero(0.0)) corrected_[touching[k] * N + n] |= kByContact;
+          for (int k = 0; k < contactCount; ++k)
+            if (!(v[touching[k]] - before[touching[k]]).isZero(0.0)) corrected_[touching[k] * N + n] |= kByContact;
         }
         if (sliverCount > 0) {
           int dominant = touching[0];
@@ -601,24 +600,22 @@ void Solver<D>::applyVelocityConditions(bool integrate) {
             mt += m[b];
             p += m[b] * v[b];
           }
-          // The slivers' momentum velocities; during the integration velocityChange_ holds them. Their correction is
-          // neither tallied nor kept through the MUSL remap (see correctSlivers). What they lose, the bodies they
-          // struck gain, as a common velocity.
+          // The slivers' momentum velocities, which velocityChange_ holds during the update. Their correction is not
+          // kept through the MUSL remap (see correctSlivers). What they lose, the bodies they struck gain, as a common
+          // velocity.
           Vec<D> momentumVelocity[kMaxBodies];
-          for (int k = 0; k < sliverCount; ++k)
-            momentumVelocity[slivers[k]] = integrate ? velocityChange_[slivers[k] * N + n] : v[slivers[k]];
+          for (int k = 0; k < sliverCount; ++k) momentumVelocity[slivers[k]] = velocityChange_[slivers[k] * N + n];
           const Vec<D> taken =
               correctSlivers<D>(v, m, momentumVelocity, slivers, sliverCount, p / mt, -normal[dominant]);
           for (int k = 0; k < contactCount; ++k) v[touching[k]] -= taken / mt;
         }
         // The work of both corrections is tallied on the particles (gridToParticles) from the change they made here.
-        if (integrate)
-          for (int k = 0; k < count; ++k) {
-            const long i = ids[k] * N + n;
-            contactDelta_[i] = v[ids[k]] - before[ids[k]];
-            if (!(corrected_[i] & kByContact) && !contactDelta_[i].isZero(0.0)) corrected_[i] |= kBySliver;
-            if (strainFromIntegration) strainWork -= dt * scatter_[i].force.dot(contactDelta_[i]);
-          }
+        for (int k = 0; k < count; ++k) {
+          const long i = ids[k] * N + n;
+          contactDelta_[i] = v[ids[k]] - before[ids[k]];
+          if (!(corrected_[i] & kByContact) && !contactDelta_[i].isZero(0.0)) corrected_[i] |= kBySliver;
+          if (strainFromIntegration) strainWork -= dt * scatter_[i].force.dot(contactDelta_[i]);
+        }
       }
       if (anyBoundary) {
         for (int k = 0; k < count; ++k) {
