@@ -302,6 +302,21 @@ TEST_CASE("verdict: a hole cut into the rear wall is measured and is an opening"
     CHECK(v.perforated);
     CHECK(v.holes[0].horizontal == relApprox(1.2e-3, 1e-6));
     CHECK(v.holes[0].vertical == relApprox(1.2e-3, 1e-6));
+    // The projectile, still in front of the wall, is its residual velocity while it flies on into the hole, and
+    // has none once it is thrown back out (as seed 003's T4 threw its projectile back out of an opened wall).
+    for (std::size_t p = 0; p < P.size(); ++p)
+      if (P.body[p] == 0) P.velocity[p] = Vec<2>(0.0, -30.0);
+    const PerforationVerdict into = assessPerforation<2>(m, sc.verdict, {1.0, 1.0}, false);
+    CHECK(into.perforated);
+    CHECK(into.residualVelocity == relApprox(30.0, 1e-12));
+    CHECK(into.residualFrom == "projectile");
+    for (std::size_t p = 0; p < P.size(); ++p)
+      if (P.body[p] == 0) P.velocity[p] = Vec<2>(0.0, 30.0);
+    const PerforationVerdict back = assessPerforation<2>(m, sc.verdict, {1.0, 1.0}, false);
+    CHECK(back.perforated);
+    CHECK(back.residualVelocity == 0.0);
+    CHECK(back.residualFragmentMass == 0.0);
+    CHECK(back.residualFrom.empty());
   }
   {
     const ImpactScenario sc = parseScenario(plateScenario(), "plate.toml", {"projectile.angle=30deg",
@@ -395,6 +410,49 @@ TEST_CASE("verdict: material separated behind the rear wall perforates it and gi
   for (std::size_t p = 0; p < P.size(); ++p)
     if (P.body[p] == 0) P.velocity[p] = Vec<2>(0.0, 100.0);
   CHECK_FALSE(assessPerforation<2>(m, sc.verdict, {1.0, 1.0}, false).perforated);
+}
+
+TEST_CASE("verdict: a run stops on a verdict only once it has held over the last half of the time run") {
+  // The checks of seed 003's T4 at 161.875 m/s as its verdict history shows them (every 10 us from 225 us): the
+  // rear wall opened at 305 us and closed again at 355 us, when the rearward kinetic energy was already low.
+  const auto verdict = [](bool perforated, bool settled) {
+    PerforationVerdict v;
+    v.perforated = v.rearOpening = perforated;
+    v.settled = settled;
+    return v;
+  };
+  const std::vector<double> spacing{0.25e-3};
+  std::vector<VerdictCheck> checks;
+  for (int t = 225; t <= 345; t += 10) checks.push_back({t * 1e-6, verdict(t >= 305, false)});
+  const PerforationVerdict closed = verdict(false, true);
+  CHECK_FALSE(verdictHeld(checks, closed, 355e-6, spacing));  // open 10 us earlier
+  // Closed from 355 us on: it holds once the last opening (345 us) is more than half the elapsed time ago.
+  for (int t = 355; t <= 685; t += 10) checks.push_back({t * 1e-6, closed});
+  CHECK_FALSE(verdictHeld(checks, closed, 685e-6, spacing));  // the window reaches back to 342.5 us
+  CHECK(verdictHeld(checks, closed, 695e-6, spacing));         // back to 347.5 us: closed throughout
+  CHECK_FALSE(verdictHeld(checks, verdict(false, false), 695e-6, spacing));  // and it must be settled
+  // A run that never opened stops as soon as it is settled.
+  const std::vector<VerdictCheck> neverOpen{{100e-6, verdict(false, false)}, {200e-6, verdict(false, false)}};
+  CHECK(verdictHeld(neverOpen, closed, 210e-6, spacing));
+
+  // A perforation holds once the mass behind, the residual velocity and the holes are those of the latest check
+  // at least half the elapsed time ago, which was perforated too.
+  PerforationVerdict through = verdict(true, true);
+  through.massBehindFraction = 1.0;
+  through.residualVelocity = 50.0;
+  through.holes = {LayerHole{"plate", 7.0e-3, 7.0e-3}};
+  std::vector<VerdictCheck> open{{100e-6, verdict(false, false)}, {200e-6, through}, {390e-6, through}};
+  CHECK(verdictHeld(open, through, 400e-6, spacing));
+  CHECK_FALSE(verdictHeld(open, through, 390e-6, spacing));  // the check at or before 195 us was not perforated
+  PerforationVerdict grown = through;
+  grown.holes[0].horizontal += 0.2e-3;  // more than half the plate's particle spacing
+  CHECK_FALSE(verdictHeld(open, grown, 400e-6, spacing));
+  grown = through;
+  grown.residualVelocity = 52.0;  // 4 %
+  CHECK_FALSE(verdictHeld(open, grown, 400e-6, spacing));
+  grown = through;
+  grown.massBehindFraction += 0.01;
+  CHECK_FALSE(verdictHeld(open, grown, 400e-6, spacing));
 }
 
 TEST_CASE("impact: a single-wall shot on either side of the Cour-Palais limit gets the BLE's verdict") {

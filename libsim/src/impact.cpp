@@ -15,22 +15,20 @@ const char* toString(BisectVariable v) { return v == BisectVariable::diameter ? 
 
 namespace {
 
-// A perforation is settled for the run once, over the last kSteadyWindow of the time run so far, the mass
-// behind the wall has changed by less than kSteadyMassFraction of the projectile's mass, the residual velocity
-// by less than kSteadyVelocityFraction of itself, and no layer's hole by more than half its particle spacing.
-// The holes are measured when the run stops: stopped at the first sign of perforation, a 1 mm sphere's hole in
-// 1 mm of 5A06 at 3 km/s was 0.8 mm and still growing; with a window of 10 % it stopped at 1.9 us, the hole
-// unchanged since 1.7 us, and grew to 2.0 mm by 3 us. The window is a share of the elapsed time, not a number of
-// checks: checks come every few nanoseconds in a hypervelocity run and every microsecond in an ordnance one.
+// The steadiness window of verdictHeld, a share of the elapsed time rather than a number of checks: checks come
+// every few nanoseconds in a hypervelocity run and every microsecond in an ordnance one. A perforation's holes are
+// measured when the run stops: stopped at the first sign of perforation, a 1 mm sphere's hole in 1 mm of 5A06 at
+// 3 km/s was 0.8 mm and still growing; with a window of 10 % it stopped at 1.9 us, the hole unchanged since
+// 1.7 us, and grew to 2.0 mm by 3 us.
 constexpr double kSteadyWindow = 0.5;
-constexpr double kSteadyMassFraction = 0.002;
-constexpr double kSteadyVelocityFraction = 0.02;
+constexpr double kSteadyMassFraction = 0.002;     // of the projectile's mass
+constexpr double kSteadyVelocityFraction = 0.02;  // of the residual velocity
 
-template <int D>
-bool holesSteady(const ImpactModel<D>& model, const PerforationVerdict& now, const PerforationVerdict& before) {
-  if (now.holes.size() != before.holes.size()) return false;
+bool holesSteady(const PerforationVerdict& now, const PerforationVerdict& before,
+                 const std::vector<double>& layerSpacing) {
+  if (now.holes.size() != before.holes.size() || now.holes.size() > layerSpacing.size()) return false;
   for (std::size_t l = 0; l < now.holes.size(); ++l) {
-    const double tolerance = 0.5 * model.layers[l].spacing;
+    const double tolerance = 0.5 * layerSpacing[l];
     if (std::fabs(now.holes[l].horizontal - before.holes[l].horizontal) > tolerance ||
         std::fabs(now.holes[l].vertical - before.holes[l].vertical) > tolerance)
       return false;
@@ -98,10 +96,13 @@ ImpactResult runModel(const ImpactScenario& sc, const ImpactRunOptions& options)
   }
   RunHooks<D> hooks;
   hooks.progress = options.progress;
-  // After a perforation the run goes on until the mass behind the wall, the residual velocity and the holes have
-  // held still over the steadiness window (a plug leaves before the projectile; a debris cloud keeps arriving for
-  // a while). The verdicts of the checks so far (perforated ones with their holes), to look back over it.
-  std::vector<std::pair<double, PerforationVerdict>> checks;
+  // A settled verdict ends the run only once it has held over the steadiness window (verdictHeld): after a
+  // perforation a plug leaves before the projectile and a debris cloud keeps arriving for a while; a rear wall's
+  // opening near the limit can close and open again. The verdicts of the checks so far (perforated ones with their
+  // holes), to look back over it.
+  std::vector<VerdictCheck> checks;
+  std::vector<double> layerSpacing;
+  for (const auto& layer : model.layers) layerSpacing.push_back(layer.spacing);
   // The verdict at every check, for a plot of why a run stopped when it did (or did not).
   std::ofstream history;
   std::size_t historyRows = 0;
@@ -114,11 +115,11 @@ ImpactResult runModel(const ImpactScenario& sc, const ImpactRunOptions& options)
   }
   hooks.saveState = [&] {
     nlohmann::json earlier = nlohmann::json::array();
-    for (const auto& [time, v] : checks) earlier.push_back({time, verdictJson(v)});
+    for (const VerdictCheck& c : checks) earlier.push_back({c.time, verdictJson(c.verdict)});
     return nlohmann::json{{"checks", earlier}, {"verdict_history_rows", historyRows}};
   };
   hooks.restoreState = [&](const nlohmann::json& state) {
-    for (const auto& c : state.at("checks")) checks.emplace_back(c[0].get<double>(), verdictFromJson(c[1]));
+    for (const auto& c : state.at("checks")) checks.push_back({c[0].get<double>(), verdictFromJson(c[1])});
     historyRows = state.at("verdict_history_rows").get<std::size_t>();
     keepFirstLines(historyFile.string(), 1 + historyRows);
     history.open(historyFile, std::ios::app);
@@ -127,7 +128,7 @@ ImpactResult runModel(const ImpactScenario& sc, const ImpactRunOptions& options)
     hooks.stop = [&](const Solver<D>& s) {
       // Holes only once perforated (the last check was): steadiness compares them, and 3D holes cost a voxel
       // grid per layer. The first perforated check has none, so steadiness waits for the next.
-      const bool holes = sc.run.stopWhenSettled && !checks.empty() && checks.back().second.perforated;
+      const bool holes = sc.run.stopWhenSettled && !checks.empty() && checks.back().verdict.perforated;
       const PerforationVerdict v = assessPerforation<D>(model, sc.verdict, initialKinetic, holes);
       if (history.is_open()) {
         history << s.time() << ',' << v.kineticFraction << ',' << v.rearwardKineticFraction << ','
@@ -136,20 +137,11 @@ ImpactResult runModel(const ImpactScenario& sc, const ImpactRunOptions& options)
         ++historyRows;
       }
       if (!sc.run.stopWhenSettled) return std::string();
-      // The latest earlier check at least kSteadyWindow of the elapsed time ago.
-      const PerforationVerdict* then = nullptr;
-      for (const auto& [time, earlier] : checks)
-        if (time <= (1.0 - kSteadyWindow) * s.time()) then = &earlier;
-      const bool steady =
-          !v.perforated ||
-          (then && then->perforated &&
-           std::fabs(v.massBehindFraction - then->massBehindFraction) < kSteadyMassFraction &&
-           std::fabs(v.residualVelocity - then->residualVelocity) <= kSteadyVelocityFraction * v.residualVelocity &&
-           holesSteady(model, v, *then));
-      checks.emplace_back(s.time(), v);
-      return v.settled && steady ? "verdict settled: " + std::string(v.perforated ? "perforated" : "not perforated") +
-                                       " (" + v.reason + ")"
-                                 : std::string();
+      const bool held = verdictHeld(checks, v, s.time(), layerSpacing);
+      checks.push_back({s.time(), v});
+      return held ? "verdict settled: " + std::string(v.perforated ? "perforated" : "not perforated") + " (" +
+                        v.reason + ")"
+                  : std::string();
     };
   const RunResult r = run<D>(solver, ro, hooks);
 
@@ -277,6 +269,24 @@ ImpactResult runModel(const ImpactScenario& sc, const ImpactRunOptions& options)
 }
 
 }  // namespace
+
+bool verdictHeld(const std::vector<VerdictCheck>& earlier, const PerforationVerdict& now, double time,
+                 const std::vector<double>& layerSpacing) {
+  if (!now.settled) return false;
+  const double since = (1.0 - kSteadyWindow) * time;
+  if (!now.perforated) {
+    for (const VerdictCheck& c : earlier)
+      if (c.time >= since && c.verdict.perforated) return false;
+    return true;
+  }
+  // The latest earlier check at least the window ago.
+  const PerforationVerdict* then = nullptr;
+  for (const VerdictCheck& c : earlier)
+    if (c.time <= since) then = &c.verdict;
+  return then && then->perforated && std::fabs(now.massBehindFraction - then->massBehindFraction) < kSteadyMassFraction &&
+         std::fabs(now.residualVelocity - then->residualVelocity) <= kSteadyVelocityFraction * now.residualVelocity &&
+         holesSteady(now, *then, layerSpacing);
+}
 
 ImpactResult runImpact(const ImpactScenario& scenario, const ImpactRunOptions& options) {
   return scenario.resolvedMode() == ModelMode::axisymmetric ? runModel<2>(scenario, options)
