@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <sstream>
+#include <tuple>
 
 namespace blt::sim {
 
@@ -340,7 +341,9 @@ PerforationVerdict assessPerforation(const ImpactModel<D>& model, const VerdictO
 
   // Residual velocity, once perforated: of the projectile when it is still mostly one piece (ordnance; a long
   // rod is still in the hole when the plug has left), else of the largest fragment behind the wall (debris).
-  // Velocity components across symmetry planes cancel with the mirrored half and are dropped.
+  // Velocity components across symmetry planes cancel with the mirrored half and are dropped. A piece moving
+  // back out of the target (v_z >= 0) has come through nowhere: none. Seed 003's T4 at 161.875 m/s opened its
+  // wall (a plug out) and threw the projectile back at 22.9 m/s, which was reported as its residual velocity.
   const auto largestPiece = [&](const std::vector<std::size_t>& members) {
     const Voxels<D> vox(P, members, model.projectileSpacing, floor);
     const int piece = vox.largest();
@@ -354,15 +357,17 @@ PerforationVerdict assessPerforation(const ImpactModel<D>& model, const VerdictO
       u[1] = 0.0;
       if (model.mirrorX) u[0] = 0.0;
     }
-    return std::make_pair(m, u.norm());
+    return std::make_tuple(m, u.norm(), u[D - 1] < 0);
   };
   if (v.perforated) {
     const auto projectile = largestPiece(bodyParticles(P, 0, true));
-    const auto piece = projectile.first >= 0.5 * model.projectileMass || behind.empty() ? projectile
-                                                                                         : largestPiece(behind);
-    v.residualVelocity = piece.second;
-    v.residualFragmentMass = piece.first / model.modelledFraction;
-    v.residualFrom = piece == projectile ? "projectile" : "largest fragment";
+    const auto piece = std::get<0>(projectile) >= 0.5 * model.projectileMass || behind.empty() ? projectile
+                                                                                                : largestPiece(behind);
+    if (std::get<2>(piece)) {
+      v.residualVelocity = std::get<1>(piece);
+      v.residualFragmentMass = std::get<0>(piece) / model.modelledFraction;
+      v.residualFrom = piece == projectile ? "projectile" : "largest fragment";
+    }
   }
 
   if (measureHoles)

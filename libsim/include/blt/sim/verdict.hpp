@@ -18,7 +18,8 @@
 // tens of microseconds) cannot, and the total kinetic energy would keep such a run going to its end time. A run
 // that stops when settled (impact.hpp) also waits, after a perforation, until the mass behind the wall, the
 // residual velocity and every layer's hole have not changed over the last half of the time run. A run that ends
-// unsettled takes the verdict of its last state.
+// unsettled takes the verdict of its last state. A "not perforated" stop also waits until no check over that
+// last half was perforated: near the limit a rear wall's opening can close again (verdictHeld in impact.hpp).
 //
 // Hole size of a layer: the opening of its intact (not failed) connected material, projected on the layer's
 // plane, around the shot line; two perpendicular extents as in seed 000 Table 5 (D_h along x, in the plane of
@@ -27,7 +28,7 @@
 // the ring of failed material around it, as a photograph of a torn fabric shows it).
 // Residual velocity (perforated only): the speed of the projectile's largest connected piece when it holds at
 // least half its mass (ordnance); otherwise that of the largest connected fragment behind the rear wall (a
-// debris cloud).
+// debris cloud). Only while that piece moves rearward: a projectile thrown back out of an opened wall gives none (0).
 
 #include <string>
 #include <vector>
