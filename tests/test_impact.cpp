@@ -410,6 +410,20 @@ TEST_CASE("verdict: material separated behind the rear wall perforates it and gi
   for (std::size_t p = 0; p < P.size(); ++p)
     if (P.body[p] == 0) P.velocity[p] = Vec<2>(0.0, 100.0);
   CHECK_FALSE(assessPerforation<2>(m, sc.verdict, {1.0, 1.0}, false).perforated);
+  // Gone out through the grid's rear face (the solver freezes such points, inactive), it still gives the residual
+  // velocity, as it left.
+  const double floor = m.solver->grid().lower[1];
+  for (std::size_t p = 0; p < P.size(); ++p)
+    if (P.body[p] == 0) {
+      P.position[p][1] = floor - 1e-4;
+      P.velocity[p] = Vec<2>(0.0, -500.0);
+      P.active[p] = 0;
+    }
+  const PerforationVerdict gone = assessPerforation<2>(m, sc.verdict, {1.0, 1.0}, false);
+  CHECK(gone.perforated);
+  CHECK(gone.residualVelocity == relApprox(500.0, 1e-12));
+  CHECK(gone.residualFrom == "projectile");
+  CHECK(gone.residualFragmentMass == relApprox(m.projectileMass * 2 * M_PI, 1e-12));
 }
 
 TEST_CASE("verdict: a run stops on a verdict only once it has held over the last half of the time run") {

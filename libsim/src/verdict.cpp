@@ -344,13 +344,8 @@ PerforationVerdict assessPerforation(const ImpactModel<D>& model, const VerdictO
   // Velocity components across symmetry planes cancel with the mirrored half and are dropped. A piece moving
   // back out of the target (v_z >= 0) has come through nowhere: none. Seed 003's T4 at 161.875 m/s opened its
   // wall (a plug out) and threw the projectile back at 22.9 m/s, which was reported as its residual velocity.
-  const auto largestPiece = [&](const std::vector<std::size_t>& members) {
-    const Voxels<D> vox(P, members, model.projectileSpacing, floor);
-    const int piece = vox.largest();
-    double m = 0;
-    Vec<D> momentum = Vec<D>::Zero();
-    for (std::size_t p : members)
-      if (vox.componentAt(P.position[p]) == piece) m += P.mass[p], momentum += P.mass[p] * P.velocity[p];
+  // (mass, speed, moving rearward) of a piece of mass m and momentum `momentum`.
+  const auto pieceOf = [&](double m, const Vec<D>& momentum) {
     Vec<D> u = m > 0 ? Vec<D>(momentum / m) : Vec<D>::Zero();
     if constexpr (D == 2) u[0] = 0.0;
     if constexpr (D == 3) {
@@ -359,14 +354,38 @@ PerforationVerdict assessPerforation(const ImpactModel<D>& model, const VerdictO
     }
     return std::make_tuple(m, u.norm(), u[D - 1] < 0);
   };
+  const auto largestPiece = [&](const std::vector<std::size_t>& members) {
+    const Voxels<D> vox(P, members, model.projectileSpacing, floor);
+    const int piece = vox.largest();
+    double m = 0;
+    Vec<D> momentum = Vec<D>::Zero();
+    for (std::size_t p : members)
+      if (vox.componentAt(P.position[p]) == piece) m += P.mass[p], momentum += P.mass[p] * P.velocity[p];
+    return pieceOf(m, momentum);
+  };
   if (v.perforated) {
-    const auto projectile = largestPiece(bodyParticles(P, 0, true));
-    const auto piece = std::get<0>(projectile) >= 0.5 * model.projectileMass || behind.empty() ? projectile
-                                                                                                : largestPiece(behind);
+    // Points that leave the grid are frozen as they left it. Where most of the projectile has gone out through the
+    // rear face, its velocity is theirs: seed 003's T4 at 190 m/s sent the whole projectile out at 74.5 m/s
+    // (the grid ends 25 mm behind the plate) and gave a plug's 14.0 m/s instead.
+    double goneMass = 0;
+    Vec<D> goneMomentum = Vec<D>::Zero();
+    for (std::size_t p = 0; p < P.size(); ++p)
+      if (!P.active[p] && P.body[p] == 0 && P.position[p][D - 1] < gridFloor)
+        goneMass += P.mass[p], goneMomentum += P.mass[p] * P.velocity[p];
+    auto piece = largestPiece(bodyParticles(P, 0, true));
+    bool ofProjectile = true;
+    if (std::get<0>(piece) < 0.5 * model.projectileMass) {
+      if (goneMass >= 0.5 * model.projectileMass) {
+        piece = pieceOf(goneMass, goneMomentum);
+      } else if (!behind.empty()) {
+        piece = largestPiece(behind);
+        ofProjectile = false;
+      }
+    }
     if (std::get<2>(piece)) {
       v.residualVelocity = std::get<1>(piece);
       v.residualFragmentMass = std::get<0>(piece) / model.modelledFraction;
-      v.residualFrom = piece == projectile ? "projectile" : "largest fragment";
+      v.residualFrom = ofProjectile ? "projectile" : "largest fragment";
     }
   }
 
