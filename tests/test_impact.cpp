@@ -426,7 +426,7 @@ TEST_CASE("verdict: material separated behind the rear wall perforates it and gi
   CHECK(gone.residualFragmentMass == relApprox(m.projectileMass * 2 * M_PI, 1e-12));
 }
 
-TEST_CASE("verdict: a run stops on a verdict only once it has held over the last half of the time run") {
+TEST_CASE("verdict: a run stops on a verdict only once it has held over the last half of the time run, and ends on it only then") {
   // The checks of seed 003's T4 at 161.875 m/s as its verdict history shows them (every 10 us from 225 us): the
   // rear wall opened at 305 us and closed again at 355 us, when the rearward kinetic energy was already low.
   const auto verdict = [](bool perforated, bool settled) {
@@ -448,6 +448,15 @@ TEST_CASE("verdict: a run stops on a verdict only once it has held over the last
   // A run that never opened stops as soon as it is settled.
   const std::vector<VerdictCheck> neverOpen{{100e-6, verdict(false, false)}, {200e-6, verdict(false, false)}};
   CHECK(verdictHeld(neverOpen, closed, 210e-6, spacing));
+  CHECK_FALSE(perforatedLately(neverOpen, 210e-6));
+  // One that reaches its end time with the wall closed at the last check only is perforated: seed 003's T2T2 at
+  // 164.69 m/s, open from 275 us to 995 us of 1 ms. Open only before the last half, it is not.
+  std::vector<VerdictCheck> lateClose;
+  for (int t = 5; t <= 995; t += 5) lateClose.push_back({t * 1e-6, verdict(t >= 275, false)});
+  CHECK(perforatedLately(lateClose, 1000e-6));
+  std::vector<VerdictCheck> earlyClose;
+  for (int t = 5; t <= 995; t += 5) earlyClose.push_back({t * 1e-6, verdict(t >= 275 && t < 495, false)});
+  CHECK_FALSE(perforatedLately(earlyClose, 1000e-6));
 
   // A perforation holds once the mass behind, the residual velocity and the holes are those of the latest check
   // at least half the elapsed time ago, which was perforated too.

@@ -147,6 +147,12 @@ ImpactResult runModel(const ImpactScenario& sc, const ImpactRunOptions& options)
 
   ImpactResult result;
   result.verdict = assessPerforation<D>(model, sc.verdict, initialKinetic, true);
+  if (!result.verdict.perforated && perforatedLately(checks, r.time)) {
+    result.verdict.perforated = true;
+    result.verdict.settled = false;
+    result.verdict.reason = "rear wall perforated over the last half of the run, though not at its end (" +
+                            result.verdict.reason + ")";
+  }
   result.status = r.status;
   result.message = r.message;
   result.mode = D == 2 ? ModelMode::axisymmetric : ModelMode::threeD;
@@ -270,15 +276,18 @@ ImpactResult runModel(const ImpactScenario& sc, const ImpactRunOptions& options)
 
 }  // namespace
 
+bool perforatedLately(const std::vector<VerdictCheck>& earlier, double time) {
+  const double since = (1.0 - kSteadyWindow) * time;
+  for (const VerdictCheck& c : earlier)
+    if (c.time >= since && c.verdict.perforated) return true;
+  return false;
+}
+
 bool verdictHeld(const std::vector<VerdictCheck>& earlier, const PerforationVerdict& now, double time,
                  const std::vector<double>& layerSpacing) {
   if (!now.settled) return false;
+  if (!now.perforated) return !perforatedLately(earlier, time);
   const double since = (1.0 - kSteadyWindow) * time;
-  if (!now.perforated) {
-    for (const VerdictCheck& c : earlier)
-      if (c.time >= since && c.verdict.perforated) return false;
-    return true;
-  }
   // The latest earlier check at least the window ago.
   const PerforationVerdict* then = nullptr;
   for (const VerdictCheck& c : earlier)

@@ -17,9 +17,11 @@
 // wall; debris sliding along the plate or thrown back out of the crater (most of an oblique shot's energy, for
 // tens of microseconds) cannot, and the total kinetic energy would keep such a run going to its end time. A run
 // that stops when settled (impact.hpp) also waits, after a perforation, until the mass behind the wall, the
-// residual velocity and every layer's hole have not changed over the last half of the time run. A run that ends
-// unsettled takes the verdict of its last state. A "not perforated" stop also waits until no check over that
-// last half was perforated: near the limit a rear wall's opening can close again (verdictHeld in impact.hpp).
+// residual velocity and every layer's hole have not changed over the last half of the time run. A "not
+// perforated" stop also waits until no check over that last half was perforated: near the limit a rear wall's
+// opening can close again (verdictHeld in impact.hpp). A run that ends unsettled takes the verdict of its last
+// state, except that, as for a stop, a wall found perforated at any check over the last half of the run is
+// perforated (perforatedLately).
 //
 // Hole size of a layer: the opening of its intact (not failed) connected material, projected on the layer's
 // plane, around the shot line; two perpendicular extents as in seed 000 Table 5 (D_h along x, in the plane of
